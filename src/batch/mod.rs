@@ -1,0 +1,484 @@
+//! The batch engine (SPEC 3.4 and 7): R independent runs of one environment, stored as flat
+//! arrays with the run axis first, stepped in parallel by rayon, one run per task.
+//!
+//! Runs never share mutable data and each owns its random stream, seeded from (master seed, run
+//! index) only, so results do not depend on batch size, thread count or scheduling order.
+
+mod step;
+
+use std::sync::Arc;
+use std::time::Instant;
+
+use ndarray::{Array2, Array3};
+use rand_core::{Rng, SeedableRng};
+use rand_xoshiro::Xoshiro256PlusPlus;
+use rayon::prelude::*;
+
+use crate::env::{Spec, StateId};
+use crate::error::ConfigError;
+use crate::expert::mb::Model;
+use crate::params::{Interaction, Params};
+
+pub use step::step;
+
+/// One run to simulate: its parameters and where its random stream comes from.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RunConfig {
+    /// Every sweepable scalar of the run.
+    pub params: Params,
+    /// The master seed of the experiment or sweep.
+    pub seed: u64,
+    /// Index of the run within the experiment or sweep; with `seed`, it fixes the random stream.
+    pub run_index: u64,
+}
+
+/// The random stream of run `run_index` under master seed `seed`.
+///
+/// NOTE: the two numbers are mixed by a SplitMix64 finaliser (so neighbouring runs get unrelated
+/// seeds), then expanded by `Xoshiro256PlusPlus::seed_from_u64`. Part of the reproducibility
+/// contract: changing it changes every result.
+pub fn run_rng(seed: u64, run_index: u64) -> Xoshiro256PlusPlus {
+    let mut z = seed
+        ^ run_index
+            .wrapping_add(1)
+            .wrapping_mul(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^= z >> 31;
+    Xoshiro256PlusPlus::seed_from_u64(z)
+}
+
+/// A uniform number in [0, 1) from the top 53 bits of one draw.
+#[inline(always)]
+pub fn uniform(rng: &mut Xoshiro256PlusPlus) -> f64 {
+    (rng.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
+}
+
+/// Per-run accumulators, added to in the step and read at the end (SPEC 8).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct RunStats {
+    /// Reward over the experiment.
+    pub total_reward: f64,
+    /// Reward over the last 10% of experiment steps (steps t > steps - steps / 10).
+    pub reward_last10: f64,
+    /// 1-based experiment step whose transition first reached the goal; 0 if none.
+    pub first_reward_step: u32,
+    /// Inference cost of the MF expert over the experiment.
+    pub cost_mf: f64,
+    /// Inference cost of the MB expert over the experiment.
+    pub cost_mb: f64,
+    /// Robot decisions (steps that were neither reset steps nor takeovers).
+    pub decisions: u64,
+    /// Decisions where the MC chose MB.
+    pub mb_decisions: u64,
+    /// Sum over decisions of the MC's softmax probability of MB.
+    pub p_mb_sum: f64,
+    /// Sum over decisions of the chosen expert's normalised entropy, as the MC read it.
+    pub entropy_sum: f64,
+    /// Congratulations given.
+    pub congratulations: u32,
+    /// Takeovers given.
+    pub takeovers: u32,
+    /// Punishments given.
+    pub punishments: u32,
+    /// Opportunities the human missed by forgetting.
+    pub forgotten: u32,
+    /// Experiment step at which the last unit of budget was spent; 0 if never.
+    pub budget_exhausted_step: u32,
+    /// Value-iteration calls (babbling included).
+    pub vi_calls: u64,
+    /// Value-iteration sweeps (babbling included).
+    pub vi_sweeps: u64,
+    /// Value-iteration calls stopped by `vi_max_sweeps` before converging (babbling included).
+    pub vi_capped: u64,
+    /// Seconds spent simulating this run.
+    pub wall_time_s: f64,
+}
+
+impl RunStats {
+    /// Interactions of any type given.
+    pub fn interactions(&self) -> u32 {
+        self.congratulations + self.takeovers + self.punishments
+    }
+
+    /// Total inference cost.
+    pub fn cost_total(&self) -> f64 {
+        self.cost_mf + self.cost_mb
+    }
+}
+
+/// One row of the time series, written every `checkpoint` experiment steps and at the last.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Checkpoint {
+    /// Experiment step (1-based) at which the row was taken.
+    pub step: u32,
+    /// Reward so far.
+    pub cum_reward: f64,
+    /// MF inference cost so far.
+    pub cum_cost_mf: f64,
+    /// MB inference cost so far.
+    pub cum_cost_mb: f64,
+    /// Mean MC probability of MB over the decisions since the previous row (NaN if none).
+    pub p_mb_mean: f64,
+    /// Decisions since the previous row.
+    pub decisions: u32,
+    /// Interactions given so far.
+    pub interactions: u32,
+}
+
+/// Where a run is: its environment state and counters that are not results.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Cursor {
+    /// Current environment state.
+    pub state: StateId,
+    /// Steps taken, babbling included.
+    pub t: u64,
+    /// Interactions the human may still give.
+    pub budget_left: u32,
+    /// Sum of P(MB) over decisions since the last checkpoint.
+    pub window_p_mb: f64,
+    /// Decisions since the last checkpoint.
+    pub window_decisions: u32,
+    /// Checkpoint rows written.
+    pub checkpoints_written: u32,
+}
+
+/// Number of checkpoint rows of a run.
+pub fn checkpoint_count(params: &Params) -> usize {
+    if params.steps == 0 || params.checkpoint == 0 {
+        return 0;
+    }
+    (params.steps as usize).div_ceil(params.checkpoint as usize)
+}
+
+/// R runs of one environment, with all their state in flat `[run, ...]` arrays.
+pub struct Batch {
+    spec: Arc<Spec>,
+    configs: Vec<RunConfig>,
+    window_cap: usize,
+    q_mf: Array3<f64>,
+    q_mb: Array3<f64>,
+    pavg_mf: Array3<f64>,
+    pavg_mb: Array3<f64>,
+    cost_mf: Array2<f64>,
+    cost_mb: Array2<f64>,
+    visited: Array2<bool>,
+    bonus: Array3<u8>,
+    ring: Array2<u16>,
+    ring_len: Array2<u16>,
+    ring_pos: Array2<u16>,
+    outcome_count: Array2<u16>,
+    outcome_reward: Array2<f64>,
+    known: Array2<bool>,
+    scratch: Array2<f64>,
+    rngs: Vec<Xoshiro256PlusPlus>,
+    cursors: Vec<Cursor>,
+    stats: Vec<RunStats>,
+    series: Vec<Checkpoint>,
+    series_start: Vec<usize>,
+}
+
+/// One run's mutable views into the batch, handed to [`step`].
+pub struct RunView<'a> {
+    /// MF action values, `[state, action]`.
+    pub q_mf: &'a mut [f64],
+    /// MB action values, `[state, action]`.
+    pub q_mb: &'a mut [f64],
+    /// MF averaged action probabilities, `[state, action]`.
+    pub pavg_mf: &'a mut [f64],
+    /// MB averaged action probabilities, `[state, action]`.
+    pub pavg_mb: &'a mut [f64],
+    /// MF per-state inference cost average.
+    pub cost_mf: &'a mut [f64],
+    /// MB per-state inference cost average.
+    pub cost_mb: &'a mut [f64],
+    /// Per state: the robot has decided there before (first-decision rule, SPEC 4).
+    pub visited: &'a mut [bool],
+    /// G(s, a) of Eq. 8, `[state, action]`.
+    pub bonus: &'a mut [u8],
+    /// The MB expert's learned model.
+    pub model: Model<'a>,
+    /// 2 |A| values of scratch space for the two experts' distributions.
+    pub scratch: &'a mut [f64],
+    /// The run's random stream.
+    pub rng: &'a mut Xoshiro256PlusPlus,
+    /// Where the run is.
+    pub cursor: &'a mut Cursor,
+    /// The run's accumulators.
+    pub stats: &'a mut RunStats,
+    /// The run's checkpoint rows.
+    pub series: &'a mut [Checkpoint],
+}
+
+impl Batch {
+    /// Allocates and initialises every run (SPEC 3.3: Q = q_init, uniform averaged distributions,
+    /// zero costs, empty model) and places each in its initial state.
+    pub fn new(spec: Arc<Spec>, configs: Vec<RunConfig>) -> Result<Batch, ConfigError> {
+        for config in &configs {
+            validate_for_spec(&spec, &config.params)?;
+        }
+        let runs = configs.len();
+        let (n_s, n_a) = (spec.n_states, spec.n_actions);
+        let pairs = n_s * n_a;
+        let window_cap = configs
+            .iter()
+            .map(|c| c.params.window_n as usize)
+            .max()
+            .unwrap_or(1);
+        let n_outcomes = spec.outcome_state.len();
+        let mut q_mf = Array3::zeros((runs, n_s, n_a));
+        let mut q_mb = Array3::zeros((runs, n_s, n_a));
+        for (r, config) in configs.iter().enumerate() {
+            q_mf.index_axis_mut(ndarray::Axis(0), r)
+                .fill(config.params.q_init);
+            q_mb.index_axis_mut(ndarray::Axis(0), r)
+                .fill(config.params.q_init);
+        }
+        let uniform_p = 1.0 / n_a as f64;
+        let mut rngs: Vec<Xoshiro256PlusPlus> = configs
+            .iter()
+            .map(|c| run_rng(c.seed, c.run_index))
+            .collect();
+        let cursors = configs
+            .iter()
+            .zip(rngs.iter_mut())
+            .map(|(config, rng)| Cursor {
+                state: initial_state(&spec, rng),
+                budget_left: config.params.human.budget,
+                ..Cursor::default()
+            })
+            .collect();
+        let mut series_start = Vec::with_capacity(runs + 1);
+        series_start.push(0);
+        for config in &configs {
+            series_start.push(series_start.last().unwrap() + checkpoint_count(&config.params));
+        }
+        Ok(Batch {
+            window_cap,
+            q_mf,
+            q_mb,
+            pavg_mf: Array3::from_elem((runs, n_s, n_a), uniform_p),
+            pavg_mb: Array3::from_elem((runs, n_s, n_a), uniform_p),
+            cost_mf: Array2::zeros((runs, n_s)),
+            cost_mb: Array2::zeros((runs, n_s)),
+            visited: Array2::from_elem((runs, n_s), false),
+            bonus: Array3::zeros((runs, n_s, n_a)),
+            ring: Array2::zeros((runs, pairs * window_cap)),
+            ring_len: Array2::zeros((runs, pairs)),
+            ring_pos: Array2::zeros((runs, pairs)),
+            outcome_count: Array2::zeros((runs, n_outcomes)),
+            outcome_reward: Array2::zeros((runs, n_outcomes)),
+            known: Array2::from_elem((runs, n_s), false),
+            scratch: Array2::zeros((runs, 2 * n_a)),
+            rngs,
+            cursors,
+            stats: vec![RunStats::default(); runs],
+            series: vec![Checkpoint::default(); *series_start.last().unwrap()],
+            series_start,
+            configs,
+            spec,
+        })
+    }
+
+    /// Number of runs.
+    pub fn len(&self) -> usize {
+        self.configs.len()
+    }
+
+    /// Whether the batch has no run.
+    pub fn is_empty(&self) -> bool {
+        self.configs.is_empty()
+    }
+
+    /// The environment all runs share.
+    pub fn spec(&self) -> &Spec {
+        &self.spec
+    }
+
+    /// The runs' configurations, in run order.
+    pub fn configs(&self) -> &[RunConfig] {
+        &self.configs
+    }
+
+    /// The runs' accumulators, in run order.
+    pub fn stats(&self) -> &[RunStats] {
+        &self.stats
+    }
+
+    /// The runs' cursors, in run order.
+    pub fn cursors(&self) -> &[Cursor] {
+        &self.cursors
+    }
+
+    /// Checkpoint rows of run `r`.
+    pub fn series(&self, r: usize) -> &[Checkpoint] {
+        &self.series[self.series_start[r]..self.series_start[r + 1]]
+    }
+
+    /// MF Q table of run `r`, `[state, action]`.
+    pub fn q_mf(&self, r: usize) -> ndarray::ArrayView2<'_, f64> {
+        self.q_mf.index_axis(ndarray::Axis(0), r)
+    }
+
+    /// MB Q table of run `r`, `[state, action]`.
+    pub fn q_mb(&self, r: usize) -> ndarray::ArrayView2<'_, f64> {
+        self.q_mb.index_axis(ndarray::Axis(0), r)
+    }
+
+    /// Averaged action probabilities of run `r`: (MF, MB), each `[state, action]`.
+    pub fn averaged_probabilities(
+        &self,
+        r: usize,
+    ) -> (ndarray::ArrayView2<'_, f64>, ndarray::ArrayView2<'_, f64>) {
+        (
+            self.pavg_mf.index_axis(ndarray::Axis(0), r),
+            self.pavg_mb.index_axis(ndarray::Axis(0), r),
+        )
+    }
+
+    /// T(s,a,s') of run `r` as a dense `[state, action, next]` array (for tests and inspection).
+    pub fn transition_model(&self, r: usize) -> Array3<f64> {
+        let spec = &self.spec;
+        let mut t = Array3::zeros((spec.n_states, spec.n_actions, spec.n_states));
+        let counts = self.outcome_count.row(r);
+        let lens = self.ring_len.row(r);
+        for s in 0..spec.n_states {
+            for a in 0..spec.n_actions {
+                let sa = spec.sa(s, a);
+                if lens[sa] == 0 {
+                    continue;
+                }
+                for o in spec.outcomes(sa) {
+                    t[[s, a, spec.outcome_state[o] as usize]] =
+                        f64::from(counts[o]) / f64::from(lens[sa]);
+                }
+            }
+        }
+        t
+    }
+
+    /// Runs every run to its end (babbling, then the experiment), in parallel.
+    pub fn run_to_end(&mut self) {
+        self.advance(u64::MAX);
+    }
+
+    /// Advances every run by up to `steps` steps (fewer where a run ends), in parallel; one rayon
+    /// task per run.
+    pub fn advance(&mut self, steps: u64) {
+        let spec = Arc::clone(&self.spec);
+        let spec: &Spec = &spec;
+        let window_cap = self.window_cap;
+        let views = self.views();
+        views
+            .into_par_iter()
+            .with_min_len(1)
+            .for_each(|(params, mut view)| {
+                let started = Instant::now();
+                let end = (params.babbling as u64 + params.steps as u64)
+                    .min(view.cursor.t.saturating_add(steps));
+                while view.cursor.t < end {
+                    step(spec, params, window_cap, &mut view);
+                }
+                view.stats.wall_time_s += started.elapsed().as_secs_f64();
+            });
+    }
+
+    /// Splits the batch's arrays into one [`RunView`] per run.
+    fn views(&mut self) -> Vec<(&Params, RunView<'_>)> {
+        let (n_s, n_a) = (self.spec.n_states, self.spec.n_actions);
+        let sa = n_s * n_a;
+        let n_o = self.spec.outcome_state.len();
+        fn rows<T>(a: &mut [T], len: usize) -> std::slice::ChunksMut<'_, T> {
+            a.chunks_mut(len.max(1))
+        }
+        let mut q_mf = rows(self.q_mf.as_slice_mut().expect("standard layout"), sa);
+        let mut q_mb = rows(self.q_mb.as_slice_mut().expect("standard layout"), sa);
+        let mut pavg_mf = rows(self.pavg_mf.as_slice_mut().expect("standard layout"), sa);
+        let mut pavg_mb = rows(self.pavg_mb.as_slice_mut().expect("standard layout"), sa);
+        let mut cost_mf = rows(self.cost_mf.as_slice_mut().expect("standard layout"), n_s);
+        let mut cost_mb = rows(self.cost_mb.as_slice_mut().expect("standard layout"), n_s);
+        let mut visited = rows(self.visited.as_slice_mut().expect("standard layout"), n_s);
+        let mut bonus = rows(self.bonus.as_slice_mut().expect("standard layout"), sa);
+        let mut ring = rows(
+            self.ring.as_slice_mut().expect("standard layout"),
+            sa * self.window_cap,
+        );
+        let mut ring_len = rows(self.ring_len.as_slice_mut().expect("standard layout"), sa);
+        let mut ring_pos = rows(self.ring_pos.as_slice_mut().expect("standard layout"), sa);
+        let mut count = rows(
+            self.outcome_count.as_slice_mut().expect("standard layout"),
+            n_o,
+        );
+        let mut reward = rows(
+            self.outcome_reward.as_slice_mut().expect("standard layout"),
+            n_o,
+        );
+        let mut known = rows(self.known.as_slice_mut().expect("standard layout"), n_s);
+        let mut scratch = rows(
+            self.scratch.as_slice_mut().expect("standard layout"),
+            2 * n_a,
+        );
+        let mut series_rest: &mut [Checkpoint] = &mut self.series;
+        let mut views = Vec::with_capacity(self.configs.len());
+        for (((config, rng), cursor), (stats, r)) in self
+            .configs
+            .iter()
+            .zip(self.rngs.iter_mut())
+            .zip(self.cursors.iter_mut())
+            .zip(self.stats.iter_mut().zip(0..))
+        {
+            let n_rows = self.series_start[r + 1] - self.series_start[r];
+            let (series, rest) = std::mem::take(&mut series_rest).split_at_mut(n_rows);
+            series_rest = rest;
+            let view = RunView {
+                q_mf: q_mf.next().expect("one row per run"),
+                q_mb: q_mb.next().expect("one row per run"),
+                pavg_mf: pavg_mf.next().expect("one row per run"),
+                pavg_mb: pavg_mb.next().expect("one row per run"),
+                cost_mf: cost_mf.next().expect("one row per run"),
+                cost_mb: cost_mb.next().expect("one row per run"),
+                visited: visited.next().expect("one row per run"),
+                bonus: bonus.next().expect("one row per run"),
+                model: Model {
+                    ring: ring.next().expect("one row per run"),
+                    ring_len: ring_len.next().expect("one row per run"),
+                    ring_pos: ring_pos.next().expect("one row per run"),
+                    count: count.next().expect("one row per run"),
+                    reward: reward.next().expect("one row per run"),
+                    known: known.next().expect("one row per run"),
+                },
+                scratch: scratch.next().expect("one row per run"),
+                rng,
+                cursor,
+                stats,
+                series,
+            };
+            views.push((&config.params, view));
+        }
+        views
+    }
+}
+
+/// Draws a run's initial state: uniform over the spec's initial states (no draw when only one).
+pub fn initial_state(spec: &Spec, rng: &mut Xoshiro256PlusPlus) -> StateId {
+    match spec.initial_states.len() {
+        1 => spec.initial_states[0],
+        n => spec.initial_states[((uniform(rng) * n as f64) as usize).min(n - 1)],
+    }
+}
+
+/// Checks that the parameters make sense for this environment (SPEC 5: no interactions where the
+/// task does not define them).
+pub fn validate_for_spec(spec: &Spec, params: &Params) -> Result<(), ConfigError> {
+    params.validate()?;
+    if params.human.interaction != Interaction::None
+        && params.human.budget > 0
+        && spec.human.is_none()
+    {
+        return Err(ConfigError::InteractionUnsupported {
+            task: spec.name.clone(),
+            interaction: format!("{:?}", params.human.interaction).to_lowercase(),
+        });
+    }
+    Ok(())
+}

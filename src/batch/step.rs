@@ -1,0 +1,277 @@
+//! One step of one run, in the order of SPEC 3.4.
+//!
+//! Random draws, in this order and only when needed: the human's attentiveness at a takeover
+//! opportunity; the MC's draw (`rnd`, softmax selection, or an argmax tie); the action; the
+//! environment's outcome (pairs with several outcomes only); the human's attentiveness at a
+//! congratulation or punishment opportunity. A reset step draws an initial state only when the
+//! environment has several.
+
+use std::time::Instant;
+
+use super::{Checkpoint, RunView, initial_state, uniform};
+use crate::env::{NO_TAKEOVER, Spec};
+use crate::expert::{draw, ema, ema_into, mf, softmax_biased};
+use crate::meta;
+use crate::params::{CostModel, Interaction, Params};
+
+/// Advances one run by one step: a babbling step while `cursor.t < babbling`, then an experiment
+/// step. At the end of babbling the environment is reset to an initial state (not a step).
+#[inline]
+pub fn step(spec: &Spec, params: &Params, window_cap: usize, run: &mut RunView<'_>) {
+    let babbling = run.cursor.t < u64::from(params.babbling);
+    let s = run.cursor.state as usize;
+    run.cursor.t += 1;
+    // Experiment step number, 1-based (0 while babbling).
+    let t_exp = if babbling {
+        0
+    } else {
+        (run.cursor.t - u64::from(params.babbling)) as u32
+    };
+
+    if s == spec.goal as usize {
+        // 1. The reset step: time passes, nothing is decided or learned (SPEC 2.1).
+        run.cursor.state = initial_state(spec, run.rng);
+    } else {
+        act(spec, params, window_cap, run, s, babbling, t_exp);
+    }
+
+    if babbling && run.cursor.t == u64::from(params.babbling) {
+        // End of babbling: back to the start; a pending reset step is dropped (SPEC 7).
+        run.cursor.state = initial_state(spec, run.rng);
+    }
+    if !babbling {
+        record_checkpoint(params, run, t_exp);
+    }
+}
+
+/// Steps 2 to 8 of SPEC 3.4 in a non-goal state.
+#[inline]
+fn act(
+    spec: &Spec,
+    params: &Params,
+    window_cap: usize,
+    run: &mut RunView<'_>,
+    s: usize,
+    babbling: bool,
+    t_exp: u32,
+) {
+    let n_a = spec.n_actions;
+    let human = &params.human;
+    let human_active = !babbling && run.cursor.budget_left > 0;
+
+    // 2. Takeover.
+    let mut action = None;
+    if human_active && human.interaction == Interaction::Takeover {
+        let put = spec
+            .human
+            .as_ref()
+            .map_or(NO_TAKEOVER, |h| h.takeover_action[s]);
+        if put != NO_TAKEOVER {
+            if uniform(run.rng) >= human.forget_prob {
+                action = Some(put as usize);
+                run.stats.takeovers += 1;
+                spend_budget(run, t_exp);
+            } else {
+                run.stats.forgotten += 1;
+            }
+        }
+    }
+    let a = match action {
+        Some(a) => a,
+        None => decide(spec, params, run, s, babbling),
+    };
+
+    // 6. Environment.
+    let sa = spec.sa(s, a);
+    let outcomes = spec.outcomes(sa);
+    let o = if outcomes.len() == 1 {
+        outcomes.start
+    } else {
+        spec.pick_outcome(sa, uniform(run.rng))
+    };
+    let next = spec.outcome_state[o] as usize;
+    let reward = if babbling {
+        0.0
+    } else {
+        spec.reward(next as u32)
+    };
+
+    // 7. Feedback: G(s, a) is set by an attentive human with budget, reset otherwise (Eq. 8).
+    let mut g = 0;
+    if human_active && run.cursor.budget_left > 0 {
+        let tables = spec.human.as_ref();
+        let opportunity = match human.interaction {
+            Interaction::Congratulation => tables.is_some_and(|h| h.relevant[sa]),
+            Interaction::Punishment => tables.is_some_and(|h| h.error[sa]),
+            _ => false,
+        };
+        if opportunity {
+            if uniform(run.rng) >= human.forget_prob {
+                g = 1;
+                if human.interaction == Interaction::Congratulation {
+                    run.stats.congratulations += 1;
+                } else {
+                    run.stats.punishments += 1;
+                }
+                spend_budget(run, t_exp);
+            } else {
+                run.stats.forgotten += 1;
+            }
+        }
+    }
+    run.bonus[sa] = g;
+
+    // 8. Learning, by every expert the controller runs.
+    let terminal = next == spec.goal as usize;
+    if params.controller.runs_mf() {
+        mf::learn(
+            run.q_mf,
+            n_a,
+            s,
+            a,
+            reward,
+            next,
+            terminal,
+            params.alpha_mf,
+            params.gamma_mf,
+        );
+    }
+    if params.controller.runs_mb() {
+        run.model
+            .learn(spec, window_cap, params.window_n as usize, s, a, o, reward);
+    }
+
+    if !babbling {
+        run.stats.total_reward += reward;
+        if reward != 0.0 {
+            if run.stats.first_reward_step == 0 {
+                run.stats.first_reward_step = t_exp;
+            }
+            if t_exp > params.steps - params.steps / 10 {
+                run.stats.reward_last10 += reward;
+            }
+        }
+    }
+    run.cursor.state = next as u32;
+}
+
+/// Steps 3 to 5 of SPEC 3.4: the MC chooses, experts infer and compute their softmax, and the
+/// action is drawn from the chosen expert's distribution.
+#[inline]
+fn decide(spec: &Spec, params: &Params, run: &mut RunView<'_>, s: usize, babbling: bool) -> usize {
+    let n_a = spec.n_actions;
+    let row = s * n_a..(s + 1) * n_a;
+    let controller = params.controller;
+
+    // 3. Selection, from what earlier visits stored.
+    let rng = &mut *run.rng;
+    let choice = meta::choose(
+        params,
+        &run.pavg_mf[row.clone()],
+        &run.pavg_mb[row.clone()],
+        run.cost_mf[s],
+        run.cost_mb[s],
+        || uniform(rng),
+    );
+
+    // 4. Inference: the chosen expert, and both at a first decision of a two-expert controller.
+    let first = !run.visited[s];
+    run.visited[s] = true;
+    let both = first && controller.is_dual();
+    let wallclock = params.cost_model == CostModel::Wallclock;
+    let mut cost_mf = 0.0;
+    let mut cost_mb = 0.0;
+    if controller.runs_mf() && (!choice.use_mb || both) {
+        let started = wallclock.then(Instant::now);
+        // MF inference is reading its row, which the softmax below does.
+        std::hint::black_box(&run.q_mf[row.clone()]);
+        cost_mf = match started {
+            Some(t) => t.elapsed().as_secs_f64(),
+            None => mf::inference_ops(n_a) as f64,
+        };
+        run.cost_mf[s] = ema(run.cost_mf[s], cost_mf, params.filter_alpha);
+    }
+    if controller.runs_mb() && (choice.use_mb || both) {
+        let started = wallclock.then(Instant::now);
+        let report = run.model.value_iteration(
+            spec,
+            run.q_mb,
+            params.gamma_mb,
+            params.vi_epsilon,
+            params.vi_max_sweeps,
+        );
+        cost_mb = match started {
+            Some(t) => t.elapsed().as_secs_f64(),
+            None => report.ops as f64,
+        };
+        run.cost_mb[s] = ema(run.cost_mb[s], cost_mb, params.filter_alpha);
+        run.stats.vi_calls += 1;
+        run.stats.vi_sweeps += u64::from(report.sweeps);
+        run.stats.vi_capped += u64::from(report.capped);
+    }
+
+    // 5. Decision: each expert the controller runs computes its (biased) softmax and folds it in.
+    let bonus = match params.human.interaction {
+        Interaction::Congratulation => params.human.zeta,
+        Interaction::Punishment => -params.human.zeta,
+        _ => 0.0,
+    };
+    let (p_mf, p_mb) = run.scratch.split_at_mut(n_a);
+    let g = &run.bonus[row.clone()];
+    if controller.runs_mf() {
+        softmax_biased(&run.q_mf[row.clone()], g, bonus, params.tau, p_mf);
+        ema_into(&mut run.pavg_mf[row.clone()], p_mf, params.filter_alpha);
+    }
+    if controller.runs_mb() {
+        softmax_biased(&run.q_mb[row.clone()], g, bonus, params.tau, p_mb);
+        ema_into(&mut run.pavg_mb[row], p_mb, params.filter_alpha);
+    }
+    let a = draw(if choice.use_mb { p_mb } else { p_mf }, uniform(run.rng));
+
+    if !babbling {
+        let stats = &mut *run.stats;
+        stats.cost_mf += cost_mf;
+        stats.cost_mb += cost_mb;
+        stats.decisions += 1;
+        stats.mb_decisions += u64::from(choice.use_mb);
+        stats.p_mb_sum += choice.p_mb;
+        stats.entropy_sum += choice.chosen_entropy;
+        run.cursor.window_p_mb += choice.p_mb;
+        run.cursor.window_decisions += 1;
+    }
+    a
+}
+
+fn spend_budget(run: &mut RunView<'_>, t_exp: u32) {
+    run.cursor.budget_left -= 1;
+    if run.cursor.budget_left == 0 {
+        run.stats.budget_exhausted_step = t_exp;
+    }
+}
+
+/// Writes a checkpoint row every `checkpoint` experiment steps and at the last step.
+#[inline]
+fn record_checkpoint(params: &Params, run: &mut RunView<'_>, t_exp: u32) {
+    if params.checkpoint == 0 || (!t_exp.is_multiple_of(params.checkpoint) && t_exp != params.steps) {
+        return;
+    }
+    let cursor = &mut *run.cursor;
+    let stats = &*run.stats;
+    let decisions = cursor.window_decisions;
+    run.series[cursor.checkpoints_written as usize] = Checkpoint {
+        step: t_exp,
+        cum_reward: stats.total_reward,
+        cum_cost_mf: stats.cost_mf,
+        cum_cost_mb: stats.cost_mb,
+        p_mb_mean: if decisions > 0 {
+            cursor.window_p_mb / f64::from(decisions)
+        } else {
+            f64::NAN
+        },
+        decisions,
+        interactions: stats.interactions(),
+    };
+    cursor.checkpoints_written += 1;
+    cursor.window_p_mb = 0.0;
+    cursor.window_decisions = 0;
+}

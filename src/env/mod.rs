@@ -1,0 +1,205 @@
+//! Environments: every task is compiled once into a read-only [`Spec`] of flat tables that all
+//! runs of a batch share (SPEC section 2).
+//!
+//! The transition model is stored in CSR form: the outcomes of the state-action pair
+//! `sa = s * n_actions + a` are `outcome_start[sa]..outcome_start[sa + 1]`, sorted by next state.
+//! The MB expert's learned model reuses this indexing (it can only ever observe outcomes the
+//! environment can produce), which keeps its memory proportional to the real branching factor.
+
+pub mod json;
+pub mod tidy;
+
+use std::path::PathBuf;
+
+use crate::error::EnvError;
+
+/// Index of a state in a [`Spec`] (the environment's own ids).
+pub type StateId = u32;
+
+/// Marker in [`HumanTables::takeover_action`] for states where the human has nothing to put.
+pub const NO_TAKEOVER: u8 = u8::MAX;
+
+/// What the simulated human needs to know about a task (SPEC 5). Only the tidy tasks define it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct HumanTables {
+    /// Per `sa`: the action is the one the human congratulates (task 1: a cube into its own box;
+    /// task 2: a put that lights an LED).
+    pub relevant: Vec<bool>,
+    /// Per `sa`: the action is an error, the target of punishment.
+    pub error: Vec<bool>,
+    /// Per state: the human's put when the robot holds a cube, or [`NO_TAKEOVER`].
+    pub takeover_action: Vec<u8>,
+}
+
+/// A compiled, validated, read-only tabular environment.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Spec {
+    /// The name the user gave (`tidy1`, `tidy2`, `json:PATH`, ...).
+    pub name: String,
+    /// Number of states |S|.
+    pub n_states: usize,
+    /// Number of actions |A|.
+    pub n_actions: usize,
+    /// CSR offsets, length `n_states * n_actions + 1`.
+    pub outcome_start: Vec<u32>,
+    /// Next state of each outcome, ascending within a state-action pair.
+    pub outcome_state: Vec<StateId>,
+    /// Relative weight (the authors' counts) of each outcome.
+    pub outcome_weight: Vec<f64>,
+    /// Cumulative probability of each outcome within its pair; the last one of a pair is 1.
+    pub outcome_cum: Vec<f64>,
+    /// States a run starts in and resets to (drawn uniformly when there are several).
+    pub initial_states: Vec<StateId>,
+    /// The rewarded, terminal state.
+    pub goal: StateId,
+    /// Reward for arriving in the goal.
+    pub goal_reward: f64,
+    /// A readable name per state id.
+    pub state_names: Vec<String>,
+    /// Human-interaction tables; `None` where the task does not define them (`json:` worlds).
+    pub human: Option<HumanTables>,
+}
+
+impl Spec {
+    /// Index of the state-action pair `(s, a)` in per-pair tables.
+    #[inline(always)]
+    pub fn sa(&self, s: usize, a: usize) -> usize {
+        s * self.n_actions + a
+    }
+
+    /// Range of outcome indices of the pair `sa`.
+    #[inline(always)]
+    pub fn outcomes(&self, sa: usize) -> std::ops::Range<usize> {
+        self.outcome_start[sa] as usize..self.outcome_start[sa + 1] as usize
+    }
+
+    /// The largest number of outcomes of any state-action pair.
+    pub fn max_branching(&self) -> usize {
+        self.outcome_start
+            .windows(2)
+            .map(|w| (w[1] - w[0]) as usize)
+            .max()
+            .unwrap_or(0)
+    }
+
+    /// Picks the outcome of `sa` for a uniform draw `u` in [0, 1): returns the global outcome index.
+    #[inline(always)]
+    pub fn pick_outcome(&self, sa: usize, u: f64) -> usize {
+        let range = self.outcomes(sa);
+        let last = range.end - 1;
+        for o in range {
+            if u < self.outcome_cum[o] {
+                return o;
+            }
+        }
+        last
+    }
+
+    /// Reward of a transition arriving in `next` (SPEC 2: only the goal is rewarded).
+    #[inline(always)]
+    pub fn reward(&self, next: StateId) -> f64 {
+        if next == self.goal {
+            self.goal_reward
+        } else {
+            0.0
+        }
+    }
+
+    /// Builds a spec from per-pair outcome lists `(next_state, weight)`, filling the CSR arrays and
+    /// cumulative probabilities. Pairs with no outcome become self-loops (SPEC 2.3).
+    pub fn from_outcomes(
+        name: String,
+        n_states: usize,
+        n_actions: usize,
+        mut outcomes: Vec<Vec<(StateId, f64)>>,
+        initial_states: Vec<StateId>,
+        goal: StateId,
+        goal_reward: f64,
+        state_names: Vec<String>,
+        human: Option<HumanTables>,
+    ) -> Spec {
+        assert_eq!(outcomes.len(), n_states * n_actions);
+        let mut outcome_start = Vec::with_capacity(outcomes.len() + 1);
+        let mut outcome_state = Vec::new();
+        let mut outcome_weight = Vec::new();
+        let mut outcome_cum = Vec::new();
+        outcome_start.push(0u32);
+        for (sa, list) in outcomes.iter_mut().enumerate() {
+            if list.is_empty() {
+                list.push(((sa / n_actions) as StateId, 1.0));
+            }
+            list.sort_by_key(|&(s, _)| s);
+            // Repeated next states have their counts added (SPEC 2.3).
+            let mut merged: Vec<(StateId, f64)> = Vec::with_capacity(list.len());
+            for &(s, w) in list.iter() {
+                match merged.last_mut() {
+                    Some(last) if last.0 == s => last.1 += w,
+                    _ => merged.push((s, w)),
+                }
+            }
+            let total: f64 = merged.iter().map(|&(_, w)| w).sum();
+            let mut cum = 0.0;
+            let n = merged.len();
+            for (i, &(s, w)) in merged.iter().enumerate() {
+                cum += w / total;
+                outcome_state.push(s);
+                outcome_weight.push(w);
+                outcome_cum.push(if i + 1 == n { 1.0 } else { cum });
+            }
+            outcome_start.push(outcome_state.len() as u32);
+        }
+        Spec {
+            name,
+            n_states,
+            n_actions,
+            outcome_start,
+            outcome_state,
+            outcome_weight,
+            outcome_cum,
+            initial_states,
+            goal,
+            goal_reward,
+            state_names,
+            human,
+        }
+    }
+}
+
+/// Where a `json:` environment's three files are.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct JsonPaths {
+    /// The transition model (`realisticNavWorld.json`).
+    pub model: PathBuf,
+    /// Initial and goal states (`keyStates.txt`), by default beside the model.
+    pub key_states: PathBuf,
+    /// State and action counts (`spaces.txt`), by default beside the model.
+    pub spaces: PathBuf,
+}
+
+impl JsonPaths {
+    /// The model file with `keyStates.txt` and `spaces.txt` taken from the same folder.
+    pub fn beside(model: impl Into<PathBuf>) -> JsonPaths {
+        let model = model.into();
+        let dir = model.parent().map(PathBuf::from).unwrap_or_default();
+        JsonPaths {
+            key_states: dir.join("keyStates.txt"),
+            spaces: dir.join("spaces.txt"),
+            model,
+        }
+    }
+}
+
+/// Builds the environment named by `task`: `tidy1`, `tidy2` or `json:PATH`.
+pub fn load(task: &str) -> Result<Spec, EnvError> {
+    match task {
+        "tidy1" => Ok(tidy::build(tidy::Variant::Task1)),
+        "tidy2" => Ok(tidy::build(tidy::Variant::Task2)),
+        _ => {
+            if let Some(path) = task.strip_prefix("json:") {
+                Ok(json::load(&JsonPaths::beside(path), task)?)
+            } else {
+                Err(EnvError::UnknownTask(task.to_string()))
+            }
+        }
+    }
+}

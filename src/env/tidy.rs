@@ -1,0 +1,260 @@
+//! The tidy tasks of the paper (SPEC 2.1 and 2.2): three cubes, three boxes, a hand and, in task
+//! 2, a lamp of three LEDs that must be lit in order.
+//!
+//! States are enumerated breadth-first from the start state, trying actions in index order, so
+//! ids match the authors' format export (`../shared/data/tidy1/`).
+
+use std::collections::{HashMap, VecDeque};
+
+use super::{HumanTables, NO_TAKEOVER, Spec, StateId};
+
+/// Number of cubes (red, green, blue).
+pub const N_CUBES: usize = 3;
+/// Actions: take red/green/blue, put in red/green/blue box, put on the table.
+pub const N_ACTIONS: usize = 7;
+/// Action that puts the held cube on the table.
+pub const PUT_ON_TABLE: usize = 6;
+
+const COLOURS: [&str; N_CUBES] = ["R", "G", "B"];
+
+/// Which tidy task.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Variant {
+    /// Task 1: put every cube in its own box (112 states).
+    Task1,
+    /// Task 2: light the three LEDs in order (142 states).
+    Task2,
+}
+
+/// Where a cube is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Place {
+    /// On the table.
+    Table,
+    /// In the box of the given colour (0 red, 1 green, 2 blue).
+    Box(u8),
+    /// In the robot's hand.
+    Hand,
+}
+
+impl Place {
+    fn label(self) -> &'static str {
+        match self {
+            Place::Table => "table",
+            Place::Box(0) => "redbox",
+            Place::Box(1) => "greenbox",
+            Place::Box(_) => "bluebox",
+            Place::Hand => "hand",
+        }
+    }
+}
+
+/// One tidy state: the place of each cube and the number of lit LEDs (always 0 in task 1).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct TidyState {
+    /// Place of the red, green and blue cube.
+    pub places: [Place; N_CUBES],
+    /// Lit LEDs, 0..=3 (task 2 only).
+    pub leds: u8,
+}
+
+/// What one action does in one state: the next state, and how the human judges the action.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Effect {
+    /// The state after the action.
+    pub next: TidyState,
+    /// The action is the one the human congratulates (SPEC 5).
+    pub relevant: bool,
+    /// The action is an error (SPEC 5, target of punishment).
+    pub error: bool,
+}
+
+impl TidyState {
+    /// All cubes on the table, hand empty, lamp off.
+    pub const START: TidyState = TidyState {
+        places: [Place::Table; N_CUBES],
+        leds: 0,
+    };
+
+    /// The cube in the hand, if any.
+    pub fn held(&self) -> Option<usize> {
+        self.places.iter().position(|&p| p == Place::Hand)
+    }
+
+    /// Whether this is the rewarded state of the task.
+    pub fn is_goal(&self, variant: Variant) -> bool {
+        match variant {
+            Variant::Task1 => (0..N_CUBES).all(|c| self.places[c] == Place::Box(c as u8)),
+            Variant::Task2 => self.leds == 3,
+        }
+    }
+
+    /// Readable name, e.g. `R:redbox G:hand B:table LED:1`.
+    pub fn name(&self, variant: Variant) -> String {
+        let mut parts: Vec<String> = (0..N_CUBES)
+            .map(|c| format!("{}:{}", COLOURS[c], self.places[c].label()))
+            .collect();
+        if variant == Variant::Task2 {
+            parts.push(format!("LED:{}", self.leds));
+        }
+        parts.join(" ")
+    }
+
+    /// The deterministic effect of `action` (SPEC 2.1, 2.2).
+    pub fn apply(&self, action: usize, variant: Variant) -> Effect {
+        let mut next = *self;
+        let mut relevant = false;
+        let mut error = false;
+        let held = self.held();
+        match action {
+            0..=2 => {
+                let cube = action;
+                // A take with a full hand changes nothing (SPEC 2.1 Decision).
+                if held.is_none() {
+                    if variant == Variant::Task2
+                        && self.places[cube] == Place::Box(cube as u8)
+                        && (self.leds as usize) > cube
+                    {
+                        // Taking out a cube whose LED is lit is an error (SPEC 2.2).
+                        error = true;
+                        next.leds = 0;
+                    }
+                    next.places[cube] = Place::Hand;
+                }
+            }
+            3..=5 => {
+                let target = action - 3;
+                if let Some(cube) = held {
+                    next.places[cube] = Place::Box(target as u8);
+                    match variant {
+                        Variant::Task1 => {
+                            relevant = cube == target;
+                            error = cube != target;
+                        }
+                        Variant::Task2 => {
+                            if cube == target && self.leds as usize == cube {
+                                relevant = true;
+                                next.leds += 1;
+                            } else {
+                                error = true;
+                                next.leds = 0;
+                            }
+                        }
+                    }
+                }
+            }
+            PUT_ON_TABLE => {
+                if let Some(cube) = held {
+                    next.places[cube] = Place::Table;
+                }
+            }
+            _ => panic!("tidy action {action} out of range 0..{N_ACTIONS}"),
+        }
+        Effect {
+            next,
+            relevant,
+            error,
+        }
+    }
+
+    /// The human's put when the robot holds a cube (SPEC 5, takeover).
+    pub fn takeover_action(&self, variant: Variant) -> Option<usize> {
+        let cube = self.held()?;
+        Some(match variant {
+            Variant::Task1 => 3 + cube,
+            Variant::Task2 if self.leds as usize == cube => 3 + cube,
+            Variant::Task2 => PUT_ON_TABLE,
+        })
+    }
+}
+
+/// All reachable states in breadth-first order from the start, trying actions in index order.
+pub fn enumerate(variant: Variant) -> Vec<TidyState> {
+    let mut order = vec![TidyState::START];
+    let mut seen: HashMap<TidyState, usize> = HashMap::from([(TidyState::START, 0)]);
+    let mut queue = VecDeque::from([TidyState::START]);
+    while let Some(state) = queue.pop_front() {
+        for action in 0..N_ACTIONS {
+            let next = state.apply(action, variant).next;
+            if let std::collections::hash_map::Entry::Vacant(slot) = seen.entry(next) {
+                slot.insert(order.len());
+                order.push(next);
+                queue.push_back(next);
+            }
+        }
+    }
+    order
+}
+
+/// Compiles a tidy task into a [`Spec`].
+pub fn build(variant: Variant) -> Spec {
+    let states = enumerate(variant);
+    let id: HashMap<TidyState, StateId> = states
+        .iter()
+        .enumerate()
+        .map(|(i, &s)| (s, i as StateId))
+        .collect();
+    let n = states.len();
+    let mut outcomes = Vec::with_capacity(n * N_ACTIONS);
+    let mut relevant = Vec::with_capacity(n * N_ACTIONS);
+    let mut error = Vec::with_capacity(n * N_ACTIONS);
+    for state in &states {
+        for action in 0..N_ACTIONS {
+            let effect = state.apply(action, variant);
+            outcomes.push(vec![(id[&effect.next], 1.0)]);
+            relevant.push(effect.relevant);
+            error.push(effect.error);
+        }
+    }
+    let takeover_action = states
+        .iter()
+        .map(|s| s.takeover_action(variant).map_or(NO_TAKEOVER, |a| a as u8))
+        .collect();
+    let goal = states
+        .iter()
+        .position(|s| s.is_goal(variant))
+        .expect("goal is reachable");
+    let name = match variant {
+        Variant::Task1 => "tidy1",
+        Variant::Task2 => "tidy2",
+    };
+    Spec::from_outcomes(
+        name.to_string(),
+        n,
+        N_ACTIONS,
+        outcomes,
+        vec![0],
+        goal as StateId,
+        1.0,
+        states.iter().map(|s| s.name(variant)).collect(),
+        Some(HumanTables {
+            relevant,
+            error,
+            takeover_action,
+        }),
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn task1_has_112_states_64_with_empty_hand() {
+        let states = enumerate(Variant::Task1);
+        assert_eq!(states.len(), 112);
+        assert_eq!(states.iter().filter(|s| s.held().is_none()).count(), 64);
+    }
+
+    #[test]
+    fn task2_has_142_states() {
+        assert_eq!(enumerate(Variant::Task2).len(), 142);
+    }
+
+    #[test]
+    fn start_state_is_id_0_and_names_read_well() {
+        let spec = build(Variant::Task2);
+        assert_eq!(spec.state_names[0], "R:table G:table B:table LED:0");
+        assert_eq!(spec.initial_states, vec![0]);
+    }
+}

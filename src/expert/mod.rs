@@ -1,0 +1,139 @@
+//! The two experts (SPEC 3) and the policy arithmetic they share: softmax, entropy and the
+//! exponential moving averages. Every function works on one run's slices, so the batch engine can
+//! call it on rows of its `[run, state, action]` arrays without copying.
+
+pub mod mb;
+pub mod mf;
+
+/// Softmax of `q[a] + bonus * g[a]` with temperature `tau`, written into `out` (Eqs. 3 and 8).
+///
+/// The maximum is subtracted first so no `exp` overflows, whatever the values and `tau`.
+#[inline]
+pub fn softmax_biased(q: &[f64], g: &[u8], bonus: f64, tau: f64, out: &mut [f64]) {
+    debug_assert!(q.len() == g.len() && q.len() == out.len());
+    let mut max = f64::NEG_INFINITY;
+    for ((o, &v), &gi) in out.iter_mut().zip(q).zip(g) {
+        let biased = v + bonus * f64::from(gi);
+        *o = biased;
+        max = max.max(biased);
+    }
+    let inv_tau = 1.0 / tau;
+    let mut sum = 0.0;
+    for o in out.iter_mut() {
+        let e = ((*o - max) * inv_tau).exp();
+        *o = e;
+        sum += e;
+    }
+    let inv = 1.0 / sum;
+    for o in out.iter_mut() {
+        *o *= inv;
+    }
+}
+
+/// Base-2 entropy of a distribution, with 0 log 0 = 0 (SPEC 3.3, Eq. 5).
+#[inline]
+pub fn entropy_bits(p: &[f64]) -> f64 {
+    let mut h = 0.0;
+    for &x in p {
+        if x > 0.0 {
+            h -= x * x.log2();
+        }
+    }
+    h.max(0.0)
+}
+
+/// Entropy divided by log2(|A|), clamped to [0, 1] against rounding (SPEC 3.3).
+#[inline]
+pub fn normalised_entropy(p: &[f64]) -> f64 {
+    let n = p.len();
+    if n < 2 {
+        return 0.0;
+    }
+    (entropy_bits(p) / (n as f64).log2()).clamp(0.0, 1.0)
+}
+
+/// One step of an exponential moving average: `(1 - alpha) * old + alpha * new`.
+#[inline(always)]
+pub fn ema(old: f64, new: f64, alpha: f64) -> f64 {
+    (1.0 - alpha) * old + alpha * new
+}
+
+/// Folds a distribution into its moving average, element by element.
+#[inline]
+pub fn ema_into(avg: &mut [f64], new: &[f64], alpha: f64) {
+    for (a, &n) in avg.iter_mut().zip(new) {
+        *a = ema(*a, n, alpha);
+    }
+}
+
+/// Index drawn from distribution `p` with a uniform `u` in [0, 1). Rounding can leave the
+/// cumulative sum just under 1: then the last index with a positive probability is returned.
+#[inline]
+pub fn draw(p: &[f64], u: f64) -> usize {
+    let mut cum = 0.0;
+    let mut last_positive = 0;
+    for (i, &x) in p.iter().enumerate() {
+        if x > 0.0 {
+            cum += x;
+            last_positive = i;
+            if u < cum {
+                return i;
+            }
+        }
+    }
+    last_positive
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn softmax_with_bonus_matches_hand_computation() {
+        // q = (0, 0.1), bonus zeta = 0.1 on action 0, tau = 0.1: both biased values are 0.1.
+        let mut out = [0.0; 2];
+        softmax_biased(&[0.0, 0.1], &[1, 0], 0.1, 0.1, &mut out);
+        assert!((out[0] - 0.5).abs() < 1e-12 && (out[1] - 0.5).abs() < 1e-12);
+        // Without the bonus: p1 = e^1 / (1 + e^1).
+        softmax_biased(&[0.0, 0.1], &[0, 0], 0.1, 0.1, &mut out);
+        let e = 1f64.exp();
+        assert!((out[1] - e / (1.0 + e)).abs() < 1e-12);
+    }
+
+    #[test]
+    fn softmax_survives_huge_values_and_tiny_tau() {
+        let mut out = [0.0; 3];
+        softmax_biased(&[1e300, -1e300, 5.0], &[0, 0, 0], 0.0, 1e-6, &mut out);
+        assert_eq!(out, [1.0, 0.0, 0.0]);
+        let sum: f64 = out.iter().sum();
+        assert!((sum - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn entropy_of_uniform_seven_is_log2_7_and_normalises_to_one() {
+        let p = [1.0 / 7.0; 7];
+        assert!((entropy_bits(&p) - 7f64.log2()).abs() < 1e-12);
+        assert!((normalised_entropy(&p) - 1.0).abs() < 1e-12);
+        assert_eq!(normalised_entropy(&[1.0, 0.0, 0.0]), 0.0);
+        // H(0.5, 0.25, 0.25) = 1.5 bits.
+        assert!((entropy_bits(&[0.5, 0.25, 0.25]) - 1.5).abs() < 1e-12);
+    }
+
+    #[test]
+    fn moving_average_weights_the_new_value_by_alpha() {
+        assert!((ema(1.0, 0.0, 0.6) - 0.4).abs() < 1e-15);
+        let mut avg = [0.5, 0.5];
+        ema_into(&mut avg, &[1.0, 0.0], 0.6);
+        assert!((avg[0] - 0.8).abs() < 1e-15 && (avg[1] - 0.2).abs() < 1e-15);
+    }
+
+    #[test]
+    fn draw_follows_the_cumulative_distribution() {
+        let p = [0.2, 0.0, 0.8];
+        assert_eq!(draw(&p, 0.0), 0);
+        assert_eq!(draw(&p, 0.19), 0);
+        assert_eq!(draw(&p, 0.2), 2);
+        assert_eq!(draw(&p, 0.999_999), 2);
+        assert_eq!(draw(&[0.5, 0.5 - 1e-16, 0.0], 0.999_999_999_999_999_9), 1);
+    }
+}

@@ -1,0 +1,19 @@
+//! mbmf: a batch simulator of model-free / model-based expert coordination under variable human
+//! feedback (Dromnelle et al., RO-MAN 2020). The project's `SPEC.md` section numbers are cited
+//! throughout as "SPEC n".
+#![warn(missing_docs)]
+// The per-run kernels take the spec, the parameters and each piece of state as separate
+// arguments, as rapier's pipeline does: nothing hidden, and the borrow checker can split work.
+#![allow(clippy::too_many_arguments)]
+
+pub mod analysis;
+pub mod batch;
+pub mod cli;
+pub mod env;
+pub mod error;
+pub mod experiment;
+pub mod expert;
+pub mod meta;
+pub mod output;
+pub mod params;
+pub mod plot;

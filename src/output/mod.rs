@@ -1,0 +1,352 @@
+//! Results as Parquet: one row per run (`runs`) and one row per run per checkpoint (`series`),
+//! with every parameter and the seed as columns so polars can `group_by` directly (SPEC 8).
+//!
+//! Files are written to a temporary name beside the target and renamed when complete, so a
+//! killed job never leaves a truncated file under the final name.
+
+use std::fs::File;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use arrow::array::{
+    ArrayRef, BooleanArray, Float64Array, RecordBatch, StringArray, UInt32Array, UInt64Array,
+};
+use arrow::datatypes::{DataType, Field, Schema, SchemaRef};
+use parquet::arrow::ArrowWriter;
+use parquet::basic::Compression;
+use parquet::file::metadata::KeyValue;
+use parquet::file::properties::WriterProperties;
+
+use crate::batch::{Batch, RunConfig};
+
+/// Failure to write results.
+#[derive(Debug, thiserror::Error)]
+pub enum OutputError {
+    /// The file system refused.
+    #[error("cannot write {path}: {source}")]
+    Io {
+        /// The file concerned.
+        path: PathBuf,
+        /// The cause.
+        source: std::io::Error,
+    },
+    /// The Parquet encoder failed.
+    #[error("cannot encode {path} as Parquet: {source}")]
+    Parquet {
+        /// The file concerned.
+        path: PathBuf,
+        /// The cause.
+        source: parquet::errors::ParquetError,
+    },
+    /// Arrow rejected a batch (a bug: columns of unequal length).
+    #[error("internal error building a record batch: {0}")]
+    Arrow(#[from] arrow::error::ArrowError),
+}
+
+/// Column-by-column builder of one record batch.
+#[derive(Default)]
+pub struct Columns {
+    fields: Vec<Field>,
+    arrays: Vec<ArrayRef>,
+}
+
+impl Columns {
+    /// A non-null float column.
+    pub fn f64(&mut self, name: &str, values: impl Iterator<Item = f64>) {
+        self.push(
+            name,
+            false,
+            Arc::new(Float64Array::from_iter_values(values)),
+        );
+    }
+    /// A float column where `None` is null.
+    pub fn opt_f64(&mut self, name: &str, values: impl Iterator<Item = Option<f64>>) {
+        self.push(name, true, Arc::new(values.collect::<Float64Array>()));
+    }
+    /// A non-null u32 column.
+    pub fn u32(&mut self, name: &str, values: impl Iterator<Item = u32>) {
+        self.push(name, false, Arc::new(UInt32Array::from_iter_values(values)));
+    }
+    /// A u32 column where `None` is null.
+    pub fn opt_u32(&mut self, name: &str, values: impl Iterator<Item = Option<u32>>) {
+        self.push(name, true, Arc::new(values.collect::<UInt32Array>()));
+    }
+    /// A non-null u64 column.
+    pub fn u64(&mut self, name: &str, values: impl Iterator<Item = u64>) {
+        self.push(name, false, Arc::new(UInt64Array::from_iter_values(values)));
+    }
+    /// A non-null string column.
+    pub fn str<'a>(&mut self, name: &str, values: impl Iterator<Item = &'a str>) {
+        self.push(
+            name,
+            false,
+            Arc::new(values.map(Some).collect::<StringArray>()),
+        );
+    }
+    /// A non-null boolean column.
+    pub fn bool(&mut self, name: &str, values: impl Iterator<Item = bool>) {
+        self.push(
+            name,
+            false,
+            Arc::new(values.map(Some).collect::<BooleanArray>()),
+        );
+    }
+    fn push(&mut self, name: &str, nullable: bool, array: ArrayRef) {
+        let field = Field::new(name, array.data_type().clone(), nullable);
+        self.fields.push(field);
+        self.arrays.push(array);
+    }
+    /// The record batch of all columns added.
+    pub fn finish(self) -> Result<RecordBatch, OutputError> {
+        Ok(RecordBatch::try_new(
+            Arc::new(Schema::new(self.fields)),
+            self.arrays,
+        )?)
+    }
+}
+
+/// The parameter columns shared by both tables: identity, then every parameter (SPEC 3–7).
+pub fn param_columns<'a, I>(cols: &mut Columns, task: &str, configs: I)
+where
+    I: Iterator<Item = &'a RunConfig> + Clone,
+{
+    let c = configs;
+    cols.u64("run_index", c.clone().map(|r| r.run_index));
+    cols.u64("seed", c.clone().map(|r| r.seed));
+    cols.str("task", c.clone().map(|_| task));
+    cols.str("controller", c.clone().map(|r| r.params.controller.name()));
+    cols.str("selection", c.clone().map(|r| selection_name(&r.params)));
+    cols.str("cost_model", c.clone().map(|r| cost_model_name(&r.params)));
+    cols.str(
+        "interaction",
+        c.clone().map(|r| interaction_name(&r.params)),
+    );
+    cols.str("profile", c.clone().map(|r| r.params.profile.name()));
+    cols.u32("budget", c.clone().map(|r| r.params.human.budget));
+    cols.f64("forget_prob", c.clone().map(|r| r.params.human.forget_prob));
+    cols.f64("zeta", c.clone().map(|r| r.params.human.zeta));
+    cols.f64("alpha_mf", c.clone().map(|r| r.params.alpha_mf));
+    cols.f64("gamma_mf", c.clone().map(|r| r.params.gamma_mf));
+    cols.f64("gamma_mb", c.clone().map(|r| r.params.gamma_mb));
+    cols.f64("tau", c.clone().map(|r| r.params.tau));
+    cols.f64("q_init", c.clone().map(|r| r.params.q_init));
+    cols.u32("window_n", c.clone().map(|r| r.params.window_n));
+    cols.f64("vi_epsilon", c.clone().map(|r| r.params.vi_epsilon));
+    cols.u32("vi_max_sweeps", c.clone().map(|r| r.params.vi_max_sweeps));
+    cols.f64("filter_alpha", c.clone().map(|r| r.params.filter_alpha));
+    cols.f64("kappa_coeff", c.clone().map(|r| r.params.kappa_coeff));
+    cols.bool(
+        "normalise_entropy",
+        c.clone().map(|r| r.params.normalise_entropy),
+    );
+    cols.u32("steps", c.clone().map(|r| r.params.steps));
+    cols.u32("babbling", c.clone().map(|r| r.params.babbling));
+    cols.u32("checkpoint", c.map(|r| r.params.checkpoint));
+}
+
+fn selection_name(p: &crate::params::Params) -> &'static str {
+    match p.selection {
+        crate::params::Selection::Softmax => "softmax",
+        crate::params::Selection::Argmax => "argmax",
+    }
+}
+
+fn cost_model_name(p: &crate::params::Params) -> &'static str {
+    match p.cost_model {
+        crate::params::CostModel::Ops => "ops",
+        crate::params::CostModel::Wallclock => "wallclock",
+    }
+}
+
+/// Name of the interaction type, as on the command line.
+pub fn interaction_name(p: &crate::params::Params) -> &'static str {
+    match p.human.interaction {
+        crate::params::Interaction::None => "none",
+        crate::params::Interaction::Congratulation => "congratulation",
+        crate::params::Interaction::Takeover => "takeover",
+        crate::params::Interaction::Punishment => "punishment",
+    }
+}
+
+fn ratio(num: f64, den: u64) -> Option<f64> {
+    (den > 0).then(|| num / den as f64)
+}
+
+/// One row per run of the batch: parameters, then the results of SPEC 8 and issue 3.
+pub fn runs_batch(batch: &Batch) -> Result<RecordBatch, OutputError> {
+    let mut cols = Columns::default();
+    let task = batch.spec().name.clone();
+    param_columns(&mut cols, &task, batch.configs().iter());
+    let s = batch.stats();
+    cols.f64("total_reward", s.iter().map(|r| r.total_reward));
+    cols.f64("reward_last10", s.iter().map(|r| r.reward_last10));
+    cols.opt_u32(
+        "first_reward_step",
+        s.iter()
+            .map(|r| (r.first_reward_step > 0).then_some(r.first_reward_step)),
+    );
+    cols.u32("interactions", s.iter().map(|r| r.interactions()));
+    cols.u32("congratulations", s.iter().map(|r| r.congratulations));
+    cols.u32("takeovers", s.iter().map(|r| r.takeovers));
+    cols.u32("punishments", s.iter().map(|r| r.punishments));
+    cols.u32("forgotten", s.iter().map(|r| r.forgotten));
+    cols.opt_u32(
+        "budget_exhausted_step",
+        s.iter()
+            .map(|r| (r.budget_exhausted_step > 0).then_some(r.budget_exhausted_step)),
+    );
+    cols.f64("cost_total", s.iter().map(|r| r.cost_total()));
+    cols.f64("cost_mf", s.iter().map(|r| r.cost_mf));
+    cols.f64("cost_mb", s.iter().map(|r| r.cost_mb));
+    cols.u64("decisions", s.iter().map(|r| r.decisions));
+    cols.u64("mb_decisions", s.iter().map(|r| r.mb_decisions));
+    cols.opt_f64(
+        "mb_share",
+        s.iter().map(|r| ratio(r.mb_decisions as f64, r.decisions)),
+    );
+    cols.opt_f64(
+        "p_mb_mean",
+        s.iter().map(|r| ratio(r.p_mb_sum, r.decisions)),
+    );
+    cols.opt_f64(
+        "mean_entropy_chosen",
+        s.iter().map(|r| ratio(r.entropy_sum, r.decisions)),
+    );
+    cols.u64("vi_calls", s.iter().map(|r| r.vi_calls));
+    cols.u64("vi_sweeps", s.iter().map(|r| r.vi_sweeps));
+    cols.u64("vi_capped", s.iter().map(|r| r.vi_capped));
+    cols.f64("wall_time_s", s.iter().map(|r| r.wall_time_s));
+    cols.finish()
+}
+
+/// One row per run per checkpoint: parameters, then the cumulative series of SPEC 8.
+pub fn series_batch(batch: &Batch) -> Result<RecordBatch, OutputError> {
+    let mut cols = Columns::default();
+    let task = batch.spec().name.clone();
+    let rows = || (0..batch.len()).flat_map(move |r| batch.series(r).iter().map(move |c| (r, c)));
+    let configs = batch.configs();
+    param_columns(&mut cols, &task, rows().map(|(r, _)| &configs[r]));
+    cols.u32("step", rows().map(|(_, c)| c.step));
+    cols.f64("cum_reward", rows().map(|(_, c)| c.cum_reward));
+    cols.f64(
+        "cum_cost",
+        rows().map(|(_, c)| c.cum_cost_mf + c.cum_cost_mb),
+    );
+    cols.f64("cum_cost_mf", rows().map(|(_, c)| c.cum_cost_mf));
+    cols.f64("cum_cost_mb", rows().map(|(_, c)| c.cum_cost_mb));
+    cols.opt_f64(
+        "p_mb_mean",
+        rows().map(|(_, c)| (c.decisions > 0).then_some(c.p_mb_mean)),
+    );
+    cols.u32("decisions", rows().map(|(_, c)| c.decisions));
+    cols.u32("interactions", rows().map(|(_, c)| c.interactions));
+    cols.finish()
+}
+
+/// A Parquet file being written under a temporary name, renamed into place by [`finish`].
+///
+/// [`finish`]: ParquetSink::finish
+pub struct ParquetSink {
+    path: PathBuf,
+    tmp: PathBuf,
+    writer: Option<ArrowWriter<File>>,
+    metadata: Vec<(String, String)>,
+}
+
+impl ParquetSink {
+    /// Prepares to write `path`; `metadata` goes into the file's key-value metadata.
+    pub fn new(path: &Path, metadata: Vec<(String, String)>) -> ParquetSink {
+        let name = path
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        let tmp = path.with_file_name(format!(".{name}.tmp-{}", std::process::id()));
+        ParquetSink {
+            path: path.to_path_buf(),
+            tmp,
+            writer: None,
+            metadata,
+        }
+    }
+
+    /// Appends a record batch (the first one fixes the schema).
+    pub fn write(&mut self, batch: &RecordBatch) -> Result<(), OutputError> {
+        if self.writer.is_none() {
+            let file = File::create(&self.tmp).map_err(|source| OutputError::Io {
+                path: self.tmp.clone(),
+                source,
+            })?;
+            let kv = self
+                .metadata
+                .iter()
+                .map(|(k, v)| KeyValue::new(k.clone(), v.clone()))
+                .collect();
+            let props = WriterProperties::builder()
+                .set_compression(Compression::SNAPPY)
+                .set_key_value_metadata(Some(kv))
+                .build();
+            let schema: SchemaRef = batch.schema();
+            let writer = ArrowWriter::try_new(file, schema, Some(props)).map_err(|source| {
+                OutputError::Parquet {
+                    path: self.path.clone(),
+                    source,
+                }
+            })?;
+            self.writer = Some(writer);
+        }
+        let writer = self.writer.as_mut().expect("created above");
+        writer.write(batch).map_err(|source| OutputError::Parquet {
+            path: self.path.clone(),
+            source,
+        })
+    }
+
+    /// Flushes, syncs and renames the file into place. Returns its final path.
+    pub fn finish(mut self) -> Result<PathBuf, OutputError> {
+        let writer = self.writer.take().expect("finish after at least one write");
+        let file = writer.into_inner().map_err(|source| OutputError::Parquet {
+            path: self.path.clone(),
+            source,
+        })?;
+        file.sync_all().map_err(|source| OutputError::Io {
+            path: self.tmp.clone(),
+            source,
+        })?;
+        drop(file);
+        std::fs::rename(&self.tmp, &self.path).map_err(|source| OutputError::Io {
+            path: self.path.clone(),
+            source,
+        })?;
+        Ok(self.path.clone())
+    }
+}
+
+impl Drop for ParquetSink {
+    fn drop(&mut self) {
+        // An unfinished sink (error or panic) removes its temporary file.
+        if self.writer.is_some() {
+            let _ = std::fs::remove_file(&self.tmp);
+        }
+    }
+}
+
+/// Writes one record batch to `path` atomically.
+pub fn write_parquet(
+    path: &Path,
+    batch: &RecordBatch,
+    metadata: Vec<(String, String)>,
+) -> Result<PathBuf, OutputError> {
+    let mut sink = ParquetSink::new(path, metadata);
+    sink.write(batch)?;
+    sink.finish()
+}
+
+/// Schema of a table, for documentation and checks: (name, type, nullable).
+pub fn describe(batch: &RecordBatch) -> Vec<(String, DataType, bool)> {
+    batch
+        .schema()
+        .fields()
+        .iter()
+        .map(|f| (f.name().clone(), f.data_type().clone(), f.is_nullable()))
+        .collect()
+}

@@ -1,0 +1,388 @@
+//! Sweepable scalar parameters of one run (SPEC 3–7). Shapes live in [`crate::env::Spec`], mutable
+//! state in [`crate::batch::Batch`]; this small `Copy` record is all that may differ between runs
+//! of one batch.
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::ConfigError;
+
+/// Which experts the meta-controller may choose from, and how (SPEC 4).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Controller {
+    /// Model-free expert alone.
+    Mf,
+    /// Model-based expert alone.
+    Mb,
+    /// MF or MB with probability 1/2 each.
+    Rnd,
+    /// Entropy and cost (Eqs. 6–7): the paper's coordination.
+    Ec,
+    /// Eq. 6 without the cost term.
+    Entropy,
+}
+
+impl Controller {
+    /// All controllers, in the order results are reported.
+    pub const ALL: [Controller; 5] = [
+        Controller::Mf,
+        Controller::Mb,
+        Controller::Rnd,
+        Controller::Ec,
+        Controller::Entropy,
+    ];
+
+    /// The name used on the command line and in outputs.
+    pub fn name(self) -> &'static str {
+        match self {
+            Controller::Mf => "mf",
+            Controller::Mb => "mb",
+            Controller::Rnd => "rnd",
+            Controller::Ec => "ec",
+            Controller::Entropy => "entropy",
+        }
+    }
+
+    /// Whether the controller runs both experts (and so both infer at a first decision).
+    pub fn is_dual(self) -> bool {
+        matches!(self, Controller::Rnd | Controller::Ec | Controller::Entropy)
+    }
+
+    /// Whether the MF expert runs (infers, computes its softmax, learns).
+    pub fn runs_mf(self) -> bool {
+        self != Controller::Mb
+    }
+
+    /// Whether the MB expert runs.
+    pub fn runs_mb(self) -> bool {
+        self != Controller::Mf
+    }
+}
+
+/// How the meta-controller turns expert values into a choice (SPEC 4).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Selection {
+    /// Softmax over the two values with `tau`, then a draw (the paper).
+    Softmax,
+    /// The better value, ties broken uniformly (the authors' code).
+    Argmax,
+}
+
+/// How inference cost is measured (SPEC 6).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum CostModel {
+    /// Q values read per inference: deterministic.
+    Ops,
+    /// Measured seconds per inference: not reproducible by nature.
+    Wallclock,
+}
+
+/// Kind of help the simulated human gives (SPEC 5).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Interaction {
+    /// No human.
+    None,
+    /// Bonus `zeta` in the softmax of a relevant action just executed (Eq. 8).
+    Congratulation,
+    /// The human puts the held cube where it belongs instead of the robot.
+    Takeover,
+    /// Penalty `zeta` in the softmax of an error just executed (the paper's future work).
+    Punishment,
+}
+
+/// Named presets of the human's behaviour (SPEC 5), sweepable as a whole.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Profile {
+    /// No interaction.
+    None,
+    /// Congratulation with the paper's minimal budget for each controller (SPEC 9 item 6).
+    PaperCongratulation,
+    /// Takeover with the paper's minimal budget for each controller (SPEC 9 item 6).
+    PaperTakeover,
+    /// Congratulates every relevant action (never forgets) with a budget of 1,000.
+    Generous,
+    /// Congratulation, but inattentive 70% of the time (budget 300).
+    Stingy,
+    /// Congratulation with a budget of 10, then silence.
+    StopsEarly,
+    /// Whatever the individual flags say.
+    Custom,
+}
+
+/// Scalars of the simulated human (SPEC 5).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct HumanParams {
+    /// Interaction type. Default `none`.
+    pub interaction: Interaction,
+    /// Interactions the human gives in a run before stopping. Default 0.
+    pub budget: u32,
+    /// Probability that the human is inattentive at an opportunity. Default 0.1 (paper).
+    pub forget_prob: f64,
+    /// Weight of the congratulation (or punishment) bonus in the softmax. Default 0.1 (paper).
+    pub zeta: f64,
+}
+
+impl Default for HumanParams {
+    fn default() -> Self {
+        HumanParams {
+            interaction: Interaction::None,
+            budget: 0,
+            forget_prob: 0.1,
+            zeta: 0.1,
+        }
+    }
+}
+
+impl Profile {
+    /// All profiles with a fixed meaning (not `custom`).
+    pub const PRESETS: [Profile; 6] = [
+        Profile::None,
+        Profile::PaperCongratulation,
+        Profile::PaperTakeover,
+        Profile::Generous,
+        Profile::Stingy,
+        Profile::StopsEarly,
+    ];
+
+    /// The name used on the command line and in outputs.
+    pub fn name(self) -> &'static str {
+        match self {
+            Profile::None => "none",
+            Profile::PaperCongratulation => "paper-congratulation",
+            Profile::PaperTakeover => "paper-takeover",
+            Profile::Generous => "generous",
+            Profile::Stingy => "stingy",
+            Profile::StopsEarly => "stops-early",
+            Profile::Custom => "custom",
+        }
+    }
+
+    /// The human this profile describes for `controller`, or `None` for `custom`.
+    pub fn human(self, controller: Controller) -> Option<HumanParams> {
+        let base = HumanParams::default();
+        let congratulation = Interaction::Congratulation;
+        Some(match self {
+            Profile::None => base,
+            Profile::PaperCongratulation => HumanParams {
+                interaction: congratulation,
+                budget: paper_budget(controller, congratulation),
+                ..base
+            },
+            Profile::PaperTakeover => HumanParams {
+                interaction: Interaction::Takeover,
+                budget: paper_budget(controller, Interaction::Takeover),
+                ..base
+            },
+            Profile::Generous => HumanParams {
+                interaction: congratulation,
+                budget: 1000,
+                forget_prob: 0.0,
+                ..base
+            },
+            Profile::Stingy => HumanParams {
+                interaction: congratulation,
+                budget: 300,
+                forget_prob: 0.7,
+                ..base
+            },
+            Profile::StopsEarly => HumanParams {
+                interaction: congratulation,
+                budget: 10,
+                ..base
+            },
+            Profile::Custom => return None,
+        })
+    }
+}
+
+/// The paper's minimal budgets reaching the maximal rate on task 1 (SPEC 9 item 6). The
+/// `entropy` controller, absent from the paper, gets EC's.
+pub fn paper_budget(controller: Controller, interaction: Interaction) -> u32 {
+    match (interaction, controller) {
+        (Interaction::Congratulation | Interaction::Punishment, Controller::Mf) => 300,
+        (Interaction::Congratulation | Interaction::Punishment, Controller::Mb) => 50,
+        (Interaction::Congratulation | Interaction::Punishment, Controller::Rnd) => 20,
+        (Interaction::Congratulation | Interaction::Punishment, _) => 30,
+        (Interaction::Takeover, Controller::Mf) => 200,
+        (Interaction::Takeover, _) => 50,
+        (Interaction::None, _) => 0,
+    }
+}
+
+/// Every sweepable scalar of one run. `Default` gives the paper's values (SPEC 3, 4, 7).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Params {
+    /// Meta-controller. Default `ec`.
+    pub controller: Controller,
+    /// Softmax (paper) or argmax (authors' code) expert selection. Default softmax.
+    pub selection: Selection,
+    /// Inference cost measure. Default `ops` (deterministic).
+    pub cost_model: CostModel,
+    /// MF learning rate (Eq. 4). Default 0.6.
+    pub alpha_mf: f64,
+    /// MF discount. Default 0.9.
+    pub gamma_mf: f64,
+    /// MB discount. Default 0.95.
+    pub gamma_mb: f64,
+    /// Softmax temperature of MF, MB and the MC. Default 0.02 (inverse temperature 50).
+    pub tau: f64,
+    /// Initial action values of both experts. Default 0 (paper; the authors' code uses 1).
+    pub q_init: f64,
+    /// MB transition window: outcomes kept per state-action pair (Eq. 1). Default 10.
+    pub window_n: u32,
+    /// Value iteration stops when the summed |dQ| of a sweep is below this. Default 0.01.
+    pub vi_epsilon: f64,
+    /// Safety cap on value-iteration sweeps per inference; calls that hit it are counted in the
+    /// output (`vi_capped`). Default 10,000, far above what convergent settings need.
+    pub vi_max_sweeps: u32,
+    /// Weight of the new value in every moving average. Default 0.6.
+    pub filter_alpha: f64,
+    /// kappa = exp(-kappa_coeff * H_MF in bits) (Eq. 7). Default 9. The main sweep parameter.
+    pub kappa_coeff: f64,
+    /// Divide entropies by log2(|A|) so they lie in [0, 1] (authors' code). Default true.
+    pub normalise_entropy: bool,
+    /// The simulated human.
+    pub human: HumanParams,
+    /// The preset the human came from (recorded in outputs).
+    pub profile: Profile,
+    /// Experiment steps after babbling. Default 10,000 (task 1; task 2 uses 20,000).
+    pub steps: u32,
+    /// Babbling steps before the experiment: reward withheld, no human. Default 1,000.
+    pub babbling: u32,
+    /// A checkpoint row is written every this many steps (and at the last step). Default 100.
+    pub checkpoint: u32,
+}
+
+impl Default for Params {
+    fn default() -> Self {
+        Params {
+            controller: Controller::Ec,
+            selection: Selection::Softmax,
+            cost_model: CostModel::Ops,
+            alpha_mf: 0.6,
+            gamma_mf: 0.9,
+            gamma_mb: 0.95,
+            tau: 0.02,
+            q_init: 0.0,
+            window_n: 10,
+            vi_epsilon: 0.01,
+            vi_max_sweeps: 10_000,
+            filter_alpha: 0.6,
+            kappa_coeff: 9.0,
+            normalise_entropy: true,
+            human: HumanParams::default(),
+            profile: Profile::None,
+            steps: 10_000,
+            babbling: 1_000,
+            checkpoint: 100,
+        }
+    }
+}
+
+/// The paper's experiment length for a task: 20,000 steps for task 2, 10,000 otherwise (SPEC 7).
+pub fn default_steps(task: &str) -> u32 {
+    if task == "tidy2" { 20_000 } else { 10_000 }
+}
+
+impl Params {
+    /// Checks every scalar against its accepted range (names as on the command line).
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        fn check(
+            name: &'static str,
+            value: f64,
+            ok: bool,
+            accepted: &'static str,
+        ) -> Result<(), ConfigError> {
+            if ok && value.is_finite() {
+                Ok(())
+            } else {
+                Err(ConfigError::InvalidParam {
+                    name,
+                    value: value.to_string(),
+                    accepted,
+                })
+            }
+        }
+        let unit_open = |x: f64| x > 0.0 && x <= 1.0;
+        let unit_closed = |x: f64| (0.0..=1.0).contains(&x);
+        check(
+            "alpha-mf",
+            self.alpha_mf,
+            unit_open(self.alpha_mf),
+            "a learning rate in (0, 1]",
+        )?;
+        check(
+            "gamma-mf",
+            self.gamma_mf,
+            unit_closed(self.gamma_mf) && self.gamma_mf < 1.0,
+            "a discount in [0, 1)",
+        )?;
+        check(
+            "gamma-mb",
+            self.gamma_mb,
+            unit_closed(self.gamma_mb) && self.gamma_mb < 1.0,
+            "a discount in [0, 1)",
+        )?;
+        check(
+            "tau",
+            self.tau,
+            self.tau > 0.0,
+            "a temperature > 0 (e.g. 0.02)",
+        )?;
+        check(
+            "q-init",
+            self.q_init,
+            self.q_init.abs() <= 1e12,
+            "a finite number with |q_init| <= 1e12",
+        )?;
+        check(
+            "vi-epsilon",
+            self.vi_epsilon,
+            self.vi_epsilon > 0.0,
+            "a tolerance > 0 (e.g. 0.01)",
+        )?;
+        check(
+            "filter-alpha",
+            self.filter_alpha,
+            unit_open(self.filter_alpha),
+            "a weight in (0, 1]",
+        )?;
+        check(
+            "kappa-coeff",
+            self.kappa_coeff,
+            self.kappa_coeff >= 0.0,
+            "a number >= 0 (e.g. 9)",
+        )?;
+        check(
+            "forget",
+            self.human.forget_prob,
+            unit_closed(self.human.forget_prob),
+            "a probability in [0, 1]",
+        )?;
+        check(
+            "zeta",
+            self.human.zeta,
+            self.human.zeta.abs() <= 1e12,
+            "a finite bonus weight (e.g. 0.1)",
+        )?;
+        if self.window_n == 0 || self.window_n > u32::from(u16::MAX) {
+            return Err(ConfigError::InvalidParam {
+                name: "window-n",
+                value: self.window_n.to_string(),
+                accepted: "a window of 1 to 65535 executions (default 10)",
+            });
+        }
+        if self.vi_max_sweeps == 0 {
+            return Err(ConfigError::InvalidParam {
+                name: "vi-max-sweeps",
+                value: "0".into(),
+                accepted: "at least 1 sweep",
+            });
+        }
+        Ok(())
+    }
+}
