@@ -66,6 +66,20 @@ pub enum Command {
     ///
     /// Example: mbmf run --task tidy1 --controller ec --interaction takeover --budget 50 --out out/ec
     Run(Box<RunArgs>),
+    /// Run a sweep file (grid of parameters x seeds) into a Parquet dataset.
+    ///
+    /// Example: mbmf sweep sweeps/kappa.toml --out out/kappa
+    Sweep(Box<crate::sweep::SweepArgs>),
+    /// Pareto front over configurations of a dataset (reward, cost, learning quality).
+    Pareto(crate::analysis::cli::ParetoArgs),
+    /// Pairwise Wilcoxon-Mann-Whitney tests of a metric between groups of runs.
+    Stats(crate::analysis::cli::StatsArgs),
+    /// Smallest interaction budget reaching the best accumulation rate, per controller.
+    MinBudget(crate::analysis::cli::MinBudgetArgs),
+    /// Run the paper's experiments and write its figures and a claim-by-claim report.
+    Reproduce(crate::reproduce::ReproduceArgs),
+    /// Print the headline speed figures of this machine in about a minute.
+    Bench(crate::bench::BenchArgs),
     /// Inspect or export an environment.
     #[command(subcommand)]
     Env(EnvCommand),
@@ -622,6 +636,12 @@ pub fn main_with_args(args: impl IntoIterator<Item = std::ffi::OsString>) -> Res
     }
     match &cli.command {
         Command::Run(args) => run(args),
+        Command::Sweep(args) => crate::sweep::command(args),
+        Command::Pareto(args) => crate::analysis::cli::pareto(args),
+        Command::Stats(args) => crate::analysis::cli::stats(args),
+        Command::MinBudget(args) => crate::analysis::cli::min_budget(args),
+        Command::Reproduce(args) => crate::reproduce::command(args),
+        Command::Bench(args) => crate::bench::command(args),
         Command::Env(cmd) => env_command(cmd),
     }
 }

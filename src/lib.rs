@@ -8,6 +8,7 @@
 
 pub mod analysis;
 pub mod batch;
+pub mod bench;
 pub mod cli;
 pub mod env;
 pub mod error;
@@ -17,3 +18,5 @@ pub mod meta;
 pub mod output;
 pub mod params;
 pub mod plot;
+pub mod reproduce;
+pub mod sweep;

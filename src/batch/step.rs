@@ -252,7 +252,8 @@ fn spend_budget(run: &mut RunView<'_>, t_exp: u32) {
 /// Writes a checkpoint row every `checkpoint` experiment steps and at the last step.
 #[inline]
 fn record_checkpoint(params: &Params, run: &mut RunView<'_>, t_exp: u32) {
-    if params.checkpoint == 0 || (!t_exp.is_multiple_of(params.checkpoint) && t_exp != params.steps) {
+    if params.checkpoint == 0 || (!t_exp.is_multiple_of(params.checkpoint) && t_exp != params.steps)
+    {
         return;
     }
     let cursor = &mut *run.cursor;
