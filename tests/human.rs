@@ -1,0 +1,465 @@
+//! The simulated human (SPEC 5, issue 3): congratulation, takeover, punishment, forgetting,
+//! budgets and the babbling protocol, checked step by step on the real step kernel.
+
+use std::sync::Arc;
+
+use mbmf::batch::{Batch, Checkpoint, Cursor, RunConfig, RunStats, RunView, run_rng, step};
+use mbmf::env::tidy::{Place, TidyState, Variant, enumerate};
+use mbmf::env::{self, Spec};
+use mbmf::expert::mb::OwnedModel;
+use mbmf::params::{Controller, HumanParams, Interaction, Params};
+use rand_xoshiro::Xoshiro256PlusPlus;
+
+/// One run with owned arrays, stepped by the engine's own `step`, so tests can set the state and
+/// read every table between steps.
+struct Solo {
+    spec: Spec,
+    params: Params,
+    q_mf: Vec<f64>,
+    q_mb: Vec<f64>,
+    pavg_mf: Vec<f64>,
+    pavg_mb: Vec<f64>,
+    cost_mf: Vec<f64>,
+    cost_mb: Vec<f64>,
+    visited: Vec<bool>,
+    bonus: Vec<u8>,
+    model: OwnedModel,
+    scratch: Vec<f64>,
+    rng: Xoshiro256PlusPlus,
+    cursor: Cursor,
+    stats: RunStats,
+    series: Vec<Checkpoint>,
+}
+
+impl Solo {
+    fn new(task: &str, params: Params) -> Solo {
+        let spec = env::load(task).unwrap();
+        let sa = spec.n_states * spec.n_actions;
+        let a = spec.n_actions;
+        Solo {
+            q_mf: vec![params.q_init; sa],
+            q_mb: vec![params.q_init; sa],
+            pavg_mf: vec![1.0 / a as f64; sa],
+            pavg_mb: vec![1.0 / a as f64; sa],
+            cost_mf: vec![0.0; spec.n_states],
+            cost_mb: vec![0.0; spec.n_states],
+            visited: vec![false; spec.n_states],
+            bonus: vec![0; sa],
+            model: OwnedModel::new(&spec, params.window_n as usize),
+            scratch: vec![0.0; 2 * a],
+            rng: run_rng(7, 0),
+            cursor: Cursor {
+                budget_left: params.human.budget,
+                ..Cursor::default()
+            },
+            stats: RunStats::default(),
+            series: vec![Checkpoint::default(); mbmf::batch::checkpoint_count(&params)],
+            spec,
+            params,
+        }
+    }
+
+    fn step(&mut self) {
+        let mut view = RunView {
+            q_mf: &mut self.q_mf,
+            q_mb: &mut self.q_mb,
+            pavg_mf: &mut self.pavg_mf,
+            pavg_mb: &mut self.pavg_mb,
+            cost_mf: &mut self.cost_mf,
+            cost_mb: &mut self.cost_mb,
+            visited: &mut self.visited,
+            bonus: &mut self.bonus,
+            model: self.model.view(),
+            scratch: &mut self.scratch,
+            rng: &mut self.rng,
+            cursor: &mut self.cursor,
+            stats: &mut self.stats,
+            series: &mut self.series,
+        };
+        step(
+            &self.spec,
+            &self.params,
+            self.params.window_n as usize,
+            &mut view,
+        );
+    }
+
+    /// Makes `action` the MF expert's near-certain choice in `state` (Q gap of 1 at tau 0.02).
+    fn prefer(&mut self, state: usize, action: usize) {
+        let a = self.spec.n_actions;
+        for b in 0..a {
+            self.q_mf[state * a + b] = if b == action { 1.0 } else { 0.0 };
+        }
+    }
+
+    fn state_of(&self, tidy: TidyState, variant: Variant) -> usize {
+        enumerate(variant).iter().position(|&s| s == tidy).unwrap()
+    }
+}
+
+fn human(interaction: Interaction, budget: u32, forget_prob: f64) -> Params {
+    Params {
+        controller: Controller::Mf,
+        babbling: 0,
+        steps: 1_000_000,
+        checkpoint: 0,
+        human: HumanParams {
+            interaction,
+            budget,
+            forget_prob,
+            zeta: 0.1,
+        },
+        ..Params::default()
+    }
+}
+
+fn holding_red() -> TidyState {
+    let mut s = TidyState::START;
+    s.places[0] = Place::Hand;
+    s
+}
+
+#[test]
+fn a_congratulated_action_carries_exactly_zeta_next_time_and_nothing_after_an_uncongratulated_execution()
+ {
+    let mut solo = Solo::new("tidy1", human(Interaction::Congratulation, 1, 0.0));
+    let s = solo.state_of(holding_red(), Variant::Task1);
+    let put_red = 3;
+    let sa = s * 7 + put_red;
+
+    // Put red in the red box: relevant, the attentive human congratulates, spending the budget.
+    solo.prefer(s, put_red);
+    solo.cursor.state = s as u32;
+    solo.step();
+    assert_eq!(solo.bonus[sa], 1);
+    assert_eq!(solo.stats.congratulations, 1);
+    assert_eq!(solo.cursor.budget_left, 0);
+
+    // Back in s with equal Q values: the softmax sees exactly +zeta on the put (Eq. 8):
+    // p(put) = e^(0.1/0.02) / (e^(0.1/0.02) + 6).
+    for b in 0..7 {
+        solo.q_mf[s * 7 + b] = 0.25;
+    }
+    solo.cursor.state = s as u32;
+    solo.step();
+    let e5 = 5f64.exp();
+    let p = &solo.scratch[..7];
+    assert!((p[put_red] - e5 / (e5 + 6.0)).abs() < 1e-12, "p = {p:?}");
+    assert!((p[0] - 1.0 / (e5 + 6.0)).abs() < 1e-12);
+    // The Q values themselves are untouched by the bonus (only learning moves them).
+
+    // Execute the put again with the budget spent: no congratulation, so G is reset to 0 ...
+    solo.prefer(s, put_red);
+    solo.cursor.state = s as u32;
+    solo.step();
+    assert_eq!(solo.bonus[sa], 0);
+    // ... and the next softmax in s has no bonus.
+    for b in 0..7 {
+        solo.q_mf[s * 7 + b] = 0.25;
+    }
+    solo.cursor.state = s as u32;
+    solo.step();
+    for &x in &solo.scratch[..7] {
+        assert!((x - 1.0 / 7.0).abs() < 1e-12);
+    }
+}
+
+#[test]
+fn punishment_gives_minus_zeta_on_an_error_only() {
+    let mut solo = Solo::new("tidy1", human(Interaction::Punishment, 10, 0.0));
+    let s = solo.state_of(holding_red(), Variant::Task1);
+    // Red into the green box is an error.
+    solo.prefer(s, 4);
+    solo.cursor.state = s as u32;
+    solo.step();
+    assert_eq!(solo.bonus[s * 7 + 4], 1);
+    assert_eq!(solo.stats.punishments, 1);
+    for b in 0..7 {
+        solo.q_mf[s * 7 + b] = 0.0;
+    }
+    solo.cursor.state = s as u32;
+    solo.step();
+    let em5 = (-5f64).exp();
+    assert!((solo.scratch[4] - em5 / (em5 + 6.0)).abs() < 1e-12);
+    // The right put is not an error: no punishment spent on it.
+    let before = solo.stats.punishments;
+    solo.prefer(s, 3);
+    solo.cursor.state = s as u32;
+    solo.step();
+    assert_eq!(solo.stats.punishments, before);
+}
+
+#[test]
+fn the_budget_is_never_exceeded_and_its_exhaustion_step_is_recorded() {
+    let spec = Arc::new(env::load("tidy1").unwrap());
+    for interaction in [
+        Interaction::Congratulation,
+        Interaction::Takeover,
+        Interaction::Punishment,
+    ] {
+        for budget in [0, 1, 5, 40] {
+            let params = Params {
+                steps: 3000,
+                babbling: 200,
+                human: HumanParams {
+                    interaction,
+                    budget,
+                    forget_prob: 0.1,
+                    zeta: 0.1,
+                },
+                ..Params::default()
+            };
+            let configs = (0..8)
+                .map(|i| RunConfig {
+                    params,
+                    seed: 3,
+                    run_index: i,
+                })
+                .collect();
+            let mut batch = Batch::new(Arc::clone(&spec), configs).unwrap();
+            batch.run_to_end();
+            for (r, stats) in batch.stats().iter().enumerate() {
+                let given = stats.interactions();
+                assert!(
+                    given <= budget,
+                    "{interaction:?} budget {budget}: run {r} gave {given}"
+                );
+                if given == budget && budget > 0 {
+                    assert!(stats.budget_exhausted_step > 0);
+                    let last = batch.series(r).last().unwrap();
+                    assert_eq!(last.interactions, budget);
+                } else {
+                    assert_eq!(stats.budget_exhausted_step, 0);
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn the_share_of_forgotten_opportunities_is_forget_prob_within_four_sigma() {
+    // Takeover gives an opportunity at every step with a held cube: 20 runs x 5,000 steps give
+    // several tens of thousands of opportunities.
+    let spec = Arc::new(env::load("tidy1").unwrap());
+    let forget_prob = 0.3;
+    let params = Params {
+        controller: Controller::Mf,
+        steps: 5000,
+        babbling: 0,
+        human: HumanParams {
+            interaction: Interaction::Takeover,
+            budget: u32::MAX,
+            forget_prob,
+            zeta: 0.1,
+        },
+        ..Params::default()
+    };
+    let configs = (0..20)
+        .map(|i| RunConfig {
+            params,
+            seed: 11,
+            run_index: i,
+        })
+        .collect();
+    let mut batch = Batch::new(spec, configs).unwrap();
+    batch.run_to_end();
+    let forgotten: u64 = batch.stats().iter().map(|s| u64::from(s.forgotten)).sum();
+    let given: u64 = batch.stats().iter().map(|s| u64::from(s.takeovers)).sum();
+    let n = (forgotten + given) as f64;
+    assert!(n > 20_000.0, "only {n} opportunities");
+    let share = forgotten as f64 / n;
+    let sigma = (forget_prob * (1.0 - forget_prob) / n).sqrt();
+    assert!(
+        (share - forget_prob).abs() < 4.0 * sigma,
+        "share {share} over {n} opportunities"
+    );
+}
+
+#[test]
+fn takeover_in_task_1_always_puts_the_held_cube_in_its_own_box() {
+    let states = enumerate(Variant::Task1);
+    for (id, tidy) in states.iter().enumerate() {
+        let Some(cube) = tidy.held() else { continue };
+        let params = Params {
+            controller: Controller::Ec,
+            ..human(Interaction::Takeover, 1, 0.0)
+        };
+        let mut solo = Solo::new("tidy1", params);
+        solo.cursor.state = id as u32;
+        solo.step();
+        let after = states[solo.cursor.state as usize];
+        assert_eq!(after.places[cube], Place::Box(cube as u8), "from {tidy:?}");
+        // Both experts learned from the human's action: the model holds the put.
+        assert_eq!(solo.model.ring_len[id * 7 + 3 + cube], 1);
+        assert_eq!(solo.stats.takeovers, 1);
+        assert_eq!(
+            solo.stats.decisions, 0,
+            "the robot does not decide on a takeover step"
+        );
+        assert_eq!(solo.stats.cost_mf, 0.0, "a takeover costs no inference");
+        assert!(
+            solo.visited.iter().all(|&v| !v),
+            "no decision was made anywhere"
+        );
+    }
+}
+
+#[test]
+fn takeover_in_task_2_lights_the_next_led_or_puts_on_the_table() {
+    let states = enumerate(Variant::Task2);
+    let mut lit = 0;
+    let mut tabled = 0;
+    for (id, tidy) in states.iter().enumerate() {
+        let Some(cube) = tidy.held() else { continue };
+        let mut solo = Solo::new("tidy2", human(Interaction::Takeover, 1, 0.0));
+        solo.cursor.state = id as u32;
+        solo.step();
+        let after = states[solo.cursor.state as usize];
+        if tidy.leds as usize == cube {
+            assert_eq!(after.places[cube], Place::Box(cube as u8));
+            assert_eq!(after.leds, tidy.leds + 1);
+            lit += 1;
+        } else {
+            assert_eq!(after.places[cube], Place::Table);
+            assert_eq!(after.leds, tidy.leds, "a table put is not an error");
+            tabled += 1;
+        }
+    }
+    assert!(lit > 0 && tabled > 0);
+}
+
+#[test]
+fn task_2_led_rules_on_a_hand_made_sequence() {
+    let v = Variant::Task2;
+    let mut s = TidyState::START;
+    // take red, put red in red box: LED 1; take green, put in green box: LED 2.
+    for (action, leds, relevant, error) in [
+        (0, 0, false, false),
+        (3, 1, true, false),
+        (1, 1, false, false),
+        (4, 2, true, false),
+        // Take red (lit) out of its box: an error, all LEDs off.
+        (0, 0, false, true),
+        // Red into the blue box: an error (k stays 0).
+        (5, 0, false, true),
+    ] {
+        let e = s.apply(action, v);
+        assert_eq!(
+            (e.next.leds, e.relevant, e.error),
+            (leds, relevant, error),
+            "action {action}"
+        );
+        s = e.next;
+    }
+    // Blue into its box at k = 0 is out of order: an error.
+    let mut t = TidyState::START;
+    t = t.apply(2, v).next;
+    let e = t.apply(5, v);
+    assert!(e.error && e.next.leds == 0);
+    let spec = env::load("tidy2").unwrap();
+    assert_eq!(
+        spec.state_names[spec.goal as usize],
+        "R:redbox G:greenbox B:bluebox LED:3"
+    );
+}
+
+#[test]
+fn babbling_counts_no_reward_no_cost_and_no_interaction() {
+    let spec = Arc::new(env::load("tidy1").unwrap());
+    let params = Params {
+        controller: Controller::Ec,
+        steps: 0,
+        babbling: 3000,
+        human: HumanParams {
+            interaction: Interaction::Takeover,
+            budget: 1000,
+            forget_prob: 0.0,
+            zeta: 0.1,
+        },
+        ..Params::default()
+    };
+    let configs = (0..4)
+        .map(|i| RunConfig {
+            params,
+            seed: 5,
+            run_index: i,
+        })
+        .collect();
+    let mut batch = Batch::new(spec, configs).unwrap();
+    batch.run_to_end();
+    for (r, stats) in batch.stats().iter().enumerate() {
+        assert_eq!(stats.total_reward, 0.0);
+        assert_eq!(stats.interactions(), 0);
+        assert_eq!(stats.forgotten, 0);
+        assert_eq!(stats.cost_total(), 0.0);
+        assert_eq!(stats.decisions, 0);
+        // Yet the robot explored and learned: the model knows transitions.
+        assert!(batch.transition_model(r).iter().any(|&t| t > 0.0));
+        assert!(stats.vi_calls > 0);
+    }
+}
+
+#[test]
+fn the_cli_runs_ec_with_takeover_and_the_stingy_profile_and_reports_interactions() {
+    use arrow::array::{Array, StringArray, UInt32Array};
+    use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
+    let dir = tempfile::tempdir().unwrap();
+    for (name, extra) in [
+        (
+            "takeover",
+            vec!["--interaction", "takeover", "--budget", "50"],
+        ),
+        ("stingy", vec!["--profile", "stingy"]),
+    ] {
+        let out = dir.path().join(name);
+        let mut args = vec![
+            "run",
+            "--controller",
+            "ec",
+            "--runs",
+            "3",
+            "--steps",
+            "2000",
+            "--quiet",
+        ];
+        args.extend(extra);
+        args.extend(["--out", out.to_str().unwrap()]);
+        let status = std::process::Command::new(env!("CARGO_BIN_EXE_mbmf"))
+            .args(&args)
+            .status()
+            .unwrap();
+        assert!(status.success(), "mbmf {args:?}");
+        let file = std::fs::File::open(out.join("runs.parquet")).unwrap();
+        let batch = ParquetRecordBatchReaderBuilder::try_new(file)
+            .unwrap()
+            .build()
+            .unwrap()
+            .next()
+            .unwrap()
+            .unwrap();
+        let col = |n: &str| batch.column(batch.schema().index_of(n).unwrap()).clone();
+        let interactions = col("interactions");
+        let interactions = interactions.as_any().downcast_ref::<UInt32Array>().unwrap();
+        let profile = col("profile");
+        let profile = profile.as_any().downcast_ref::<StringArray>().unwrap();
+        assert_eq!(batch.num_rows(), 3);
+        for i in 0..3 {
+            assert!(interactions.value(i) > 0, "{name}: no interaction reported");
+        }
+        if name == "stingy" {
+            assert_eq!(profile.value(0), "stingy");
+            let budget = col("budget");
+            assert_eq!(
+                budget
+                    .as_any()
+                    .downcast_ref::<UInt32Array>()
+                    .unwrap()
+                    .value(0),
+                300
+            );
+        } else {
+            assert!(interactions.value(0) <= 50);
+            assert_eq!(profile.value(0), "custom");
+        }
+    }
+}
