@@ -1,43 +1,570 @@
-//! The analysis verbs: `mbmf pareto`, `mbmf stats`, `mbmf min-budget`. (Being written.)
+//! The analysis verbs: `mbmf pareto`, `mbmf stats`, `mbmf min-budget`. Each reads a dataset,
+//! runs one analysis of this module's siblings, prints a table and writes its results beside
+//! the data (Parquet, and for `pareto` a figure), atomically.
 
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, anyhow};
 use clap::Args;
 
-use crate::cli::{Failure, usage};
+use crate::analysis::AnalysisError;
+use crate::analysis::compare::{self, Comparison};
+use crate::analysis::dataset::{self, Filter, Table};
+use crate::analysis::front::{DEFAULT_OBJECTIVES, Front};
+use crate::analysis::min_budget::{self, DEFAULT_ALPHA, MinBudget};
+use crate::analysis::pareto::{Direction, Objective};
+use crate::cli::{Failure, runtime, usage};
+use crate::plot::{self, ScatterChart};
 
 /// `mbmf pareto`.
 #[derive(Debug, Clone, Args)]
+#[command(
+    after_help = "Example: mbmf pareto out/kappa --objectives total_reward:max,cost_total:min"
+)]
 pub struct ParetoArgs {
-    /// A dataset folder written by mbmf run or mbmf sweep.
-    pub dir: std::path::PathBuf,
+    /// Dataset: a folder written by mbmf run (runs.parquet) or mbmf sweep (runs/part-*.parquet),
+    /// or one .parquet file.
+    pub dir: PathBuf,
+    /// Objectives as NAME:max or NAME:min, comma-separated; any numeric column of the runs.
+    /// Default: the paper's reward, inference cost and learning quality (entropy of the
+    /// controlling expert, lower is better).
+    #[arg(long, value_delimiter = ',', default_value = DEFAULT_OBJECTIVES, value_parser = Objective::parse)]
+    pub objectives: Vec<Objective>,
+    /// Keep only runs with COLUMN=VALUE (repeatable; every filter must hold).
+    #[arg(long = "where", value_name = "COLUMN=VALUE", value_parser = Filter::parse)]
+    pub filters: Vec<Filter>,
+    /// Folder for pareto.parquet, pareto.svg and pareto.png (default: the dataset's folder).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Write no figure.
+    #[arg(long)]
+    pub no_plot: bool,
 }
 
 /// `mbmf stats`.
 #[derive(Debug, Clone, Args)]
+#[command(
+    after_help = "Example: mbmf stats out/run --by controller --metric total_reward --where interaction=none"
+)]
 pub struct StatsArgs {
-    /// A dataset folder written by mbmf run or mbmf sweep.
-    pub dir: std::path::PathBuf,
+    /// Dataset: a folder written by mbmf run (runs.parquet) or mbmf sweep (runs/part-*.parquet),
+    /// or one .parquet file.
+    pub dir: PathBuf,
+    /// Column whose values define the groups (e.g. controller, budget, kappa_coeff).
+    #[arg(long)]
+    pub by: String,
+    /// Numeric column to compare (e.g. total_reward, cost_total, mean_entropy_chosen).
+    #[arg(long, default_value = "total_reward")]
+    pub metric: String,
+    /// Keep only runs with COLUMN=VALUE (repeatable; every filter must hold).
+    #[arg(long = "where", value_name = "COLUMN=VALUE", value_parser = Filter::parse)]
+    pub filters: Vec<Filter>,
 }
 
 /// `mbmf min-budget`.
 #[derive(Debug, Clone, Args)]
+#[command(after_help = "Example: mbmf min-budget out/budgets --metric reward_last10")]
 pub struct MinBudgetArgs {
-    /// A dataset folder written by mbmf run or mbmf sweep.
-    pub dir: std::path::PathBuf,
+    /// Dataset: a folder written by mbmf run (runs.parquet) or mbmf sweep (runs/part-*.parquet),
+    /// or one .parquet file.
+    pub dir: PathBuf,
+    /// Numeric column to compare between budgets: total_reward (default) or reward_last10 (the
+    /// accumulation rate at the end of the run).
+    #[arg(long, default_value = "total_reward")]
+    pub metric: String,
+    /// Significance level of the one-sided tests (SPEC 9: 0.05).
+    #[arg(long, default_value_t = DEFAULT_ALPHA)]
+    pub alpha: f64,
+    /// Keep only runs with COLUMN=VALUE (repeatable; every filter must hold).
+    #[arg(long = "where", value_name = "COLUMN=VALUE", value_parser = Filter::parse)]
+    pub filters: Vec<Filter>,
+    /// Folder for min_budget.parquet (default: the dataset's folder).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Also print every budget of every group (mean, sd, the budgets that beat it).
+    #[arg(long)]
+    pub levels: bool,
+}
+
+/// Reads the runs of `dir` and applies the filters.
+fn load(dir: &Path, filters: &[Filter]) -> Result<Table, Failure> {
+    let table = dataset::read_runs(dir).map_err(usage)?;
+    if table.is_empty() {
+        return Err(usage(anyhow!("{} holds no runs", table.source())));
+    }
+    Filter::apply_all(&table, filters).map_err(usage)
+}
+
+/// Writes `table` as Parquet into `folder/name`, atomically.
+fn write_table(table: &Table, folder: &Path, name: &str) -> Result<PathBuf, Failure> {
+    std::fs::create_dir_all(folder)
+        .with_context(|| format!("cannot create output folder {}", folder.display()))
+        .map_err(runtime)?;
+    let batch = table
+        .to_record_batch()
+        .map_err(|e| runtime(anyhow!("internal error building {name}: {e}")))?;
+    let metadata = vec![
+        (
+            "mbmf_version".to_owned(),
+            env!("CARGO_PKG_VERSION").to_owned(),
+        ),
+        (
+            "mbmf_command".to_owned(),
+            std::env::args().collect::<Vec<_>>().join(" "),
+        ),
+    ];
+    crate::output::write_parquet(&folder.join(name), &batch, metadata).map_err(runtime)
+}
+
+fn analysis_failure(e: AnalysisError) -> Failure {
+    usage(e)
 }
 
 /// Runs `mbmf pareto`.
-pub fn pareto(_args: &ParetoArgs) -> Result<(), Failure> {
-    Err(usage(anyhow::anyhow!("mbmf pareto is not implemented yet")))
+pub fn pareto(args: &ParetoArgs) -> Result<(), Failure> {
+    let table = load(&args.dir, &args.filters)?;
+    let front = Front::compute(&table, &args.objectives).map_err(analysis_failure)?;
+    print_front(&front, table.len());
+    let folder = args
+        .out
+        .clone()
+        .unwrap_or_else(|| dataset::output_folder(&args.dir));
+    let path = write_table(&front.to_table(), &folder, "pareto.parquet")?;
+    let mut written = vec![path];
+    if !args.no_plot {
+        match front_chart(&front) {
+            Some(chart) => written
+                .extend(plot::scatter_chart(&chart, &folder.join("pareto")).map_err(runtime)?),
+            None => println!("no figure: it needs two objectives with finite means"),
+        }
+    }
+    let shown: Vec<String> = written.iter().map(|p| p.display().to_string()).collect();
+    println!("wrote {}", shown.join(", "));
+    Ok(())
+}
+
+fn print_front(front: &Front, runs: usize) {
+    let c = &front.configs;
+    let objectives: Vec<String> = front.objectives.iter().map(|o| o.to_string()).collect();
+    let members = front.members();
+    println!(
+        "{}: {runs} runs in {} configurations; {} on the Pareto front of {}",
+        c.source,
+        c.len(),
+        members.len(),
+        objectives.join(", ")
+    );
+    let unranked = front.rank.iter().filter(|r| r.is_none()).count();
+    if unranked > 0 {
+        println!(
+            "({unranked} configurations lack a mean of some objective and are left out of the ranking)"
+        );
+    }
+    let mut headers: Vec<String> = c.varying.clone();
+    headers.push("n".to_owned());
+    for o in &front.objectives {
+        headers.push(format!("{} ({})", o.name, o.direction));
+    }
+    headers.push("knee".to_owned());
+    let mut rows = Vec::new();
+    for &i in &members {
+        let mut row: Vec<String> = c
+            .varying
+            .iter()
+            .map(|k| c.key_value(i, k).map(|v| v.to_string()).unwrap_or_default())
+            .collect();
+        row.push(c.rows[i].len().to_string());
+        for o in 0..front.objectives.len() {
+            row.push(mean_ci(
+                front.objective_mean(i, o),
+                front.objective_ci95(i, o),
+            ));
+        }
+        row.push(if front.knee == Some(i) { "<- knee" } else { "" }.to_owned());
+        rows.push(row);
+    }
+    let left = c.varying.len();
+    let last = headers.len() - 1;
+    print!(
+        "{}",
+        render_aligned(&headers, &rows, |i| i < left || i == last)
+    );
+    println!("(means over runs ± half-width of the 95% Student-t confidence interval)");
+    if let Some(k) = front.knee {
+        println!(
+            "knee (suggested): {}: the front configuration nearest the ideal point once each \
+             objective is rescaled to [0, 1] over the front (pareto::knee_point)",
+            c.label(k)
+        );
+    }
+}
+
+/// The figure of a front: the second objective across, the first up.
+fn front_chart(front: &Front) -> Option<ScatterChart> {
+    if front.objectives.len() < 2 {
+        return None;
+    }
+    let c = &front.configs;
+    let shown: Vec<usize> = (0..c.len())
+        .filter(|&i| {
+            front.objective_mean(i, 0).is_finite() && front.objective_mean(i, 1).is_finite()
+        })
+        .collect();
+    if shown.is_empty() {
+        return None;
+    }
+    let points: Vec<(f64, f64)> = shown
+        .iter()
+        .map(|&i| (front.objective_mean(i, 1), front.objective_mean(i, 0)))
+        .collect();
+    let position = |i: usize| shown.iter().position(|&s| s == i);
+    let highlighted = (0..c.len())
+        .filter(|&i| front.rank[i] == Some(0))
+        .filter_map(position)
+        .collect();
+    let xs: Vec<f64> = points.iter().map(|p| p.0).collect();
+    let lo = xs.iter().copied().fold(f64::INFINITY, f64::min);
+    let hi = xs.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let axis = |o: &Objective| {
+        let better = match o.direction {
+            Direction::Maximize => "higher is better",
+            Direction::Minimize => "lower is better",
+        };
+        format!("{} (mean; {better})", o.name)
+    };
+    let extra = if front.objectives.len() > 2 {
+        format!(", front over {} objectives", front.objectives.len())
+    } else {
+        String::new()
+    };
+    Some(ScatterChart {
+        title: format!("Pareto front ({} configurations{extra})", c.len()),
+        x_label: axis(&front.objectives[1]),
+        y_label: axis(&front.objectives[0]),
+        points,
+        highlighted,
+        marked: front.knee.and_then(position),
+        point_labels: shown.iter().map(|&i| c.label(i)).collect(),
+        log_x: lo > 0.0 && hi / lo >= 100.0,
+        log_y: false,
+    })
 }
 
 /// Runs `mbmf stats`.
-pub fn stats(_args: &StatsArgs) -> Result<(), Failure> {
-    Err(usage(anyhow::anyhow!("mbmf stats is not implemented yet")))
+pub fn stats(args: &StatsArgs) -> Result<(), Failure> {
+    let table = load(&args.dir, &args.filters)?;
+    let comparison = compare::compare(&table, &args.by, &args.metric).map_err(analysis_failure)?;
+    print_comparison(&comparison);
+    Ok(())
+}
+
+fn print_comparison(c: &Comparison) {
+    println!(
+        "{}: {} by {} (two-sided Wilcoxon-Mann-Whitney tests, Holm-corrected over {} pairs)",
+        c.source,
+        c.metric,
+        c.by,
+        c.pairs.len()
+    );
+    let headers: Vec<String> = [c.by.as_str(), "n", "mean", "sd", "median"]
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+    let rows: Vec<Vec<String>> = c
+        .groups
+        .iter()
+        .map(|g| {
+            let mut n = g.n.to_string();
+            if g.missing > 0 {
+                n.push_str(&format!(" (+{} missing)", g.missing));
+            }
+            vec![
+                g.value.to_string(),
+                n,
+                num(g.mean),
+                num(g.sd),
+                num(g.median),
+            ]
+        })
+        .collect();
+    print!("{}", render(&headers, &rows, 1));
+    println!();
+    let headers: Vec<String> = ["a", "b", "U", "p", "p_holm", "", "effect", "method"]
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+    let rows: Vec<Vec<String>> = c
+        .pairs
+        .iter()
+        .map(|p| {
+            vec![
+                c.groups[p.first].value.to_string(),
+                c.groups[p.second].value.to_string(),
+                num(p.test.u),
+                pval(p.test.p_value),
+                pval(p.p_holm),
+                stars(p.p_holm).to_owned(),
+                format!("{:+.3}", p.test.effect_size),
+                match p.test.method {
+                    crate::analysis::stats::Method::Exact => "exact",
+                    crate::analysis::stats::Method::NormalApprox => "normal",
+                }
+                .to_owned(),
+            ]
+        })
+        .collect();
+    print!("{}", render(&headers, &rows, 2));
+    println!(
+        "U = Mann-Whitney U of a; effect = rank-biserial correlation P(a > b) - P(a < b), in \
+         [-1, 1]; * p_holm < 0.05, ** < 0.01, *** < 0.001; exact = exact null distribution \
+         (small samples, no ties), normal = normal approximation with tie and continuity \
+         correction"
+    );
+    if !c.empty.is_empty() {
+        let values: Vec<String> = c.empty.iter().map(|v| v.to_string()).collect();
+        println!(
+            "left out ({} has no value): {} = {}",
+            c.metric,
+            c.by,
+            values.join(", ")
+        );
+    }
+    if !c.mixed.is_empty() {
+        println!(
+            "note: within groups these parameters also vary: {}; add --where COLUMN=VALUE to \
+             compare like with like",
+            c.mixed.join(", ")
+        );
+    }
 }
 
 /// Runs `mbmf min-budget`.
-pub fn min_budget(_args: &MinBudgetArgs) -> Result<(), Failure> {
-    Err(usage(anyhow::anyhow!(
-        "mbmf min-budget is not implemented yet"
-    )))
+pub fn min_budget(args: &MinBudgetArgs) -> Result<(), Failure> {
+    let table = load(&args.dir, &args.filters)?;
+    let result =
+        min_budget::min_budget(&table, &args.metric, args.alpha).map_err(analysis_failure)?;
+    print_min_budget(&result, args.levels);
+    let folder = args
+        .out
+        .clone()
+        .unwrap_or_else(|| dataset::output_folder(&args.dir));
+    let path = write_table(&result.to_table(), &folder, "min_budget.parquet")?;
+    println!("wrote {}", path.display());
+    Ok(())
+}
+
+fn print_min_budget(r: &MinBudget, levels: bool) {
+    println!(
+        "{}: minimal budget of {} (SPEC 9: the smallest budget that no larger budget beats with \
+         a higher mean and a one-sided Mann-Whitney p < {}; no multiple-comparison correction)",
+        r.source, r.metric, r.alpha
+    );
+    let mut headers: Vec<String> = r.shown.clone();
+    for h in [
+        "budgets",
+        "min budget",
+        "mean",
+        "best budget",
+        "best mean",
+        "p vs larger budgets (budget: p)",
+    ] {
+        headers.push(h.to_owned());
+    }
+    let mut rows = Vec::new();
+    let mut notes = Vec::new();
+    for (g, group) in r.groups.iter().enumerate() {
+        let mut row: Vec<String> = r
+            .shown
+            .iter()
+            .map(|k| r.key_value(g, k).map(|v| v.to_string()).unwrap_or_default())
+            .collect();
+        let chosen = &group.levels[group.chosen];
+        let best = &group.levels[group.best];
+        let budgets: Vec<String> = group.levels.iter().map(|l| l.budget.to_string()).collect();
+        row.push(budgets.join(","));
+        row.push(chosen.budget.to_string());
+        row.push(num(chosen.mean));
+        row.push(best.budget.to_string());
+        row.push(num(best.mean));
+        let ps: Vec<String> = chosen
+            .vs_larger
+            .iter()
+            .map(|v| format!("{}: {}", v.budget, pval(v.p_value)))
+            .collect();
+        row.push(if ps.is_empty() {
+            "(largest budget)".to_owned()
+        } else {
+            ps.join(", ")
+        });
+        rows.push(row);
+        if !group.not_monotone.is_empty() {
+            let label: Vec<String> = row_label(r, g);
+            let detail: Vec<String> = group
+                .levels
+                .iter()
+                .filter(|l| group.not_monotone.contains(&l.budget))
+                .map(|l| {
+                    let by: Vec<String> = l
+                        .vs_larger
+                        .iter()
+                        .filter(|v| v.beats)
+                        .map(|v| format!("{} (p = {})", v.budget, pval(v.p_value)))
+                        .collect();
+                    format!("{} is beaten by {}", l.budget, by.join(", "))
+                })
+                .collect();
+            notes.push(format!(
+                "not monotone for {}: above the minimal budget {}, {}",
+                label.join(" "),
+                chosen.budget,
+                detail.join("; ")
+            ));
+        }
+    }
+    let (keys, last) = (r.shown.len(), headers.len() - 1);
+    print!(
+        "{}",
+        render_aligned(&headers, &rows, |i| i < keys || i == last)
+    );
+    println!(
+        "budget 0 = runs with budget 0 or interaction none, shared by every interaction type; \
+         p = one-sided test that the larger budget's values are greater"
+    );
+    for n in notes {
+        println!("{n}");
+    }
+    if r.baseline_only > 0 {
+        println!(
+            "({} parameter combinations have only budget-0 runs and are not shown)",
+            r.baseline_only
+        );
+    }
+    if levels {
+        for (g, group) in r.groups.iter().enumerate() {
+            println!();
+            println!("{}", row_label(r, g).join(" "));
+            let headers: Vec<String> = ["budget", "n", "mean", "sd", "qualifies", "beaten by"]
+                .iter()
+                .map(|s| s.to_string())
+                .collect();
+            let rows: Vec<Vec<String>> = group
+                .levels
+                .iter()
+                .map(|l| {
+                    let by: Vec<String> = l
+                        .vs_larger
+                        .iter()
+                        .filter(|v| v.beats)
+                        .map(|v| format!("{} (p = {})", v.budget, pval(v.p_value)))
+                        .collect();
+                    vec![
+                        l.budget.to_string(),
+                        l.n.to_string(),
+                        num(l.mean),
+                        num(l.sd),
+                        if l.qualifies { "yes" } else { "no" }.to_owned(),
+                        by.join(", "),
+                    ]
+                })
+                .collect();
+            print!("{}", render_aligned(&headers, &rows, |i| i == 5));
+        }
+    }
+}
+
+fn row_label(r: &MinBudget, g: usize) -> Vec<String> {
+    r.shown
+        .iter()
+        .map(|k| r.key_value(g, k).map(|v| v.to_string()).unwrap_or_default())
+        .collect()
+}
+
+/// A number with four significant digits, scientific notation outside [1e-3, 1e6); `-` for
+/// NaN.
+fn num(x: f64) -> String {
+    if !x.is_finite() {
+        return "-".to_owned();
+    }
+    if x == 0.0 {
+        return "0".to_owned();
+    }
+    let magnitude = x.abs().log10().floor();
+    if !(-3.0..6.0).contains(&magnitude) {
+        return format!("{x:.3e}");
+    }
+    let decimals = (3.0 - magnitude).max(0.0) as usize;
+    format!("{x:.decimals$}")
+}
+
+/// `mean ± ci`, or the mean alone when the interval is undefined.
+fn mean_ci(mean: f64, ci: f64) -> String {
+    if ci.is_finite() {
+        format!("{} ± {}", num(mean), num(ci))
+    } else {
+        num(mean)
+    }
+}
+
+/// A p-value: four decimals, scientific below 1e-4.
+fn pval(p: f64) -> String {
+    if !p.is_finite() {
+        "-".to_owned()
+    } else if p < 1e-4 {
+        format!("{p:.2e}")
+    } else {
+        format!("{p:.4}")
+    }
+}
+
+fn stars(p: f64) -> &'static str {
+    if p < 0.001 {
+        "***"
+    } else if p < 0.01 {
+        "**"
+    } else if p < 0.05 {
+        "*"
+    } else {
+        ""
+    }
+}
+
+/// A plain-text table: the first `left` columns left-aligned, the others right-aligned.
+fn render(headers: &[String], rows: &[Vec<String>], left: usize) -> String {
+    render_aligned(headers, rows, |i| i < left)
+}
+
+/// A plain-text table: columns for which `left` holds are left-aligned, others right-aligned.
+fn render_aligned(
+    headers: &[String],
+    rows: &[Vec<String>],
+    left: impl Fn(usize) -> bool,
+) -> String {
+    let width = |s: &str| s.chars().count();
+    let mut widths: Vec<usize> = headers.iter().map(|h| width(h)).collect();
+    for row in rows {
+        for (w, cell) in widths.iter_mut().zip(row) {
+            *w = (*w).max(width(cell));
+        }
+    }
+    let line = |cells: &[String]| -> String {
+        let parts: Vec<String> = cells
+            .iter()
+            .zip(&widths)
+            .enumerate()
+            .map(|(i, (cell, &w))| {
+                let pad = " ".repeat(w - width(cell));
+                if left(i) {
+                    format!("{cell}{pad}")
+                } else {
+                    format!("{pad}{cell}")
+                }
+            })
+            .collect();
+        format!("{}\n", parts.join("  ").trim_end())
+    };
+    let mut out = line(headers);
+    for row in rows {
+        out.push_str(&line(row));
+    }
+    out
 }

@@ -1,0 +1,1126 @@
+//! Reading result datasets into a small columnar [`Table`], filtering rows and grouping runs by
+//! configuration.
+//!
+//! A dataset is what `mbmf run --out DIR` writes (`DIR/runs.parquet`, `DIR/series.parquet`) or
+//! what `mbmf sweep --out DIR` writes (`DIR/runs/part-*.parquet`, `DIR/series/part-*.parquet`).
+//! [`read_dataset`] accepts either folder, the `runs/` folder itself, or one `.parquet` file.
+//! Columns keep a simple type (float, signed or unsigned integer, string, boolean; all
+//! nullable): whatever the Parquet writer chose (u32 or u64, Utf8 or LargeUtf8, dictionary or
+//! not) is widened to one of these, so files written by polars or pandas read the same way.
+
+use std::cmp::Ordering;
+use std::collections::{BTreeMap, BTreeSet};
+use std::fmt;
+use std::fs::File;
+use std::hash::{Hash, Hasher};
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, OnceLock};
+
+use arrow::array::{
+    Array, ArrayRef, AsArray, BooleanArray, Float64Array, Int64Array, RecordBatch,
+    RecordBatchReader, StringArray, UInt64Array,
+};
+use arrow::datatypes::{DataType, Field, Float64Type, Int64Type, Schema, UInt64Type};
+use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
+
+/// Failure to read a dataset or to find what an analysis asks for in it. Every message names
+/// the dataset and says what would be accepted.
+#[derive(Debug, thiserror::Error)]
+pub enum DatasetError {
+    /// No result files at the given path.
+    #[error(
+        "no {table} table found at {path}: {detail}; expected a folder written by \
+         `mbmf run --out DIR` (DIR/{table}.parquet) or `mbmf sweep --out DIR` \
+         (DIR/{table}/part-*.parquet), or a .parquet file"
+    )]
+    NotFound {
+        /// The path given.
+        path: PathBuf,
+        /// Which table was looked for (`runs` or `series`).
+        table: String,
+        /// What was found instead.
+        detail: String,
+    },
+    /// The file system refused.
+    #[error("cannot read {path}: {source}")]
+    Io {
+        /// The file or folder concerned.
+        path: PathBuf,
+        /// The cause.
+        source: std::io::Error,
+    },
+    /// A file is not valid Parquet.
+    #[error("{path} is not a readable Parquet file: {source}")]
+    Parquet {
+        /// The file concerned.
+        path: PathBuf,
+        /// The cause.
+        source: parquet::errors::ParquetError,
+    },
+    /// Arrow failed to decode or convert a column.
+    #[error("{path}: cannot decode the data: {source}")]
+    Arrow {
+        /// The file concerned.
+        path: PathBuf,
+        /// The cause.
+        source: arrow::error::ArrowError,
+    },
+    /// Two files of one dataset disagree on a column's type.
+    #[error(
+        "{path}: column '{column}' holds {found} but the earlier files hold {expected}; the \
+         files of one dataset must share a schema"
+    )]
+    SchemaMismatch {
+        /// The file where the mismatch was seen.
+        path: PathBuf,
+        /// The column.
+        column: String,
+        /// The type in earlier files.
+        expected: &'static str,
+        /// The type in this file.
+        found: &'static str,
+    },
+    /// An analysis asked for a column the dataset does not have.
+    #[error("{dataset} has no column '{column}'{hint}. Available columns: {available}")]
+    MissingColumn {
+        /// The dataset (its file or folder).
+        dataset: String,
+        /// The column asked for.
+        column: String,
+        /// ` (did you mean 'x'?)` or empty.
+        hint: String,
+        /// The columns it has, comma-separated.
+        available: String,
+    },
+    /// A column holds no numbers where numbers are needed.
+    #[error(
+        "{dataset}: column '{column}' holds {found}, but {purpose} needs numbers; numeric columns: {numeric}"
+    )]
+    NotNumeric {
+        /// The dataset (its file or folder).
+        dataset: String,
+        /// The column.
+        column: String,
+        /// Its type.
+        found: &'static str,
+        /// What needed numbers (e.g. `--metric`).
+        purpose: String,
+        /// The numeric columns, comma-separated.
+        numeric: String,
+    },
+    /// A `--where` filter is malformed or does not fit its column.
+    #[error("--where '{text}': {reason}")]
+    BadFilter {
+        /// The filter as given.
+        text: String,
+        /// What is wrong and what would be accepted.
+        reason: String,
+    },
+    /// Filtering left no rows.
+    #[error(
+        "{dataset}: no run matches --where '{text}'; values of '{column}' in the data: {values}"
+    )]
+    NoMatch {
+        /// The dataset (its file or folder).
+        dataset: String,
+        /// The filter that removed the last rows.
+        text: String,
+        /// Its column.
+        column: String,
+        /// The distinct values present (at most 20 shown).
+        values: String,
+    },
+}
+
+/// One column of a [`Table`]: a simple type, every value nullable.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Column {
+    /// Floating point (any float width).
+    Float(Vec<Option<f64>>),
+    /// Signed integers (any width).
+    Int(Vec<Option<i64>>),
+    /// Unsigned integers (any width).
+    UInt(Vec<Option<u64>>),
+    /// Text (Utf8, LargeUtf8, views and dictionaries of them).
+    Str(Vec<Option<String>>),
+    /// Booleans.
+    Bool(Vec<Option<bool>>),
+}
+
+impl Column {
+    /// Number of values.
+    pub fn len(&self) -> usize {
+        match self {
+            Column::Float(v) => v.len(),
+            Column::Int(v) => v.len(),
+            Column::UInt(v) => v.len(),
+            Column::Str(v) => v.len(),
+            Column::Bool(v) => v.len(),
+        }
+    }
+
+    /// `true` when the column has no values.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// The type's name, for messages.
+    pub fn type_name(&self) -> &'static str {
+        match self {
+            Column::Float(_) => "floats",
+            Column::Int(_) => "integers",
+            Column::UInt(_) => "unsigned integers",
+            Column::Str(_) => "text",
+            Column::Bool(_) => "booleans",
+        }
+    }
+
+    /// `true` for floats and integers.
+    pub fn is_numeric(&self) -> bool {
+        matches!(self, Column::Float(_) | Column::Int(_) | Column::UInt(_))
+    }
+
+    /// Value `i` as a float, `None` when null or not numeric.
+    pub fn f64_at(&self, i: usize) -> Option<f64> {
+        match self {
+            Column::Float(v) => v[i],
+            Column::Int(v) => v[i].map(|x| x as f64),
+            Column::UInt(v) => v[i].map(|x| x as f64),
+            Column::Str(_) | Column::Bool(_) => None,
+        }
+    }
+
+    /// Value `i`.
+    pub fn value(&self, i: usize) -> Value {
+        match self {
+            Column::Float(v) => v[i].map_or(Value::Null, Value::Float),
+            Column::Int(v) => v[i].map_or(Value::Null, Value::Int),
+            Column::UInt(v) => v[i].map_or(Value::Null, Value::UInt),
+            Column::Str(v) => v[i].clone().map_or(Value::Null, Value::Str),
+            Column::Bool(v) => v[i].map_or(Value::Null, Value::Bool),
+        }
+    }
+
+    /// The values at `rows`, in that order.
+    pub fn take(&self, rows: &[usize]) -> Column {
+        match self {
+            Column::Float(v) => Column::Float(rows.iter().map(|&i| v[i]).collect()),
+            Column::Int(v) => Column::Int(rows.iter().map(|&i| v[i]).collect()),
+            Column::UInt(v) => Column::UInt(rows.iter().map(|&i| v[i]).collect()),
+            Column::Str(v) => Column::Str(rows.iter().map(|&i| v[i].clone()).collect()),
+            Column::Bool(v) => Column::Bool(rows.iter().map(|&i| v[i]).collect()),
+        }
+    }
+
+    /// A column of the same type holding `values` (which must match that type or be null).
+    pub fn from_values(like: &Column, values: &[Value]) -> Column {
+        match like {
+            Column::Float(_) => Column::Float(values.iter().map(Value::as_f64).collect()),
+            Column::Int(_) => Column::Int(
+                values
+                    .iter()
+                    .map(|v| match v {
+                        Value::Int(x) => Some(*x),
+                        _ => None,
+                    })
+                    .collect(),
+            ),
+            Column::UInt(_) => Column::UInt(
+                values
+                    .iter()
+                    .map(|v| match v {
+                        Value::UInt(x) => Some(*x),
+                        _ => None,
+                    })
+                    .collect(),
+            ),
+            Column::Str(_) => Column::Str(
+                values
+                    .iter()
+                    .map(|v| match v {
+                        Value::Str(s) => Some(s.clone()),
+                        _ => None,
+                    })
+                    .collect(),
+            ),
+            Column::Bool(_) => Column::Bool(
+                values
+                    .iter()
+                    .map(|v| match v {
+                        Value::Bool(b) => Some(*b),
+                        _ => None,
+                    })
+                    .collect(),
+            ),
+        }
+    }
+
+    /// An empty column of the same type.
+    fn empty_like(&self) -> Column {
+        self.take(&[])
+    }
+
+    /// Appends `n` nulls.
+    fn push_nulls(&mut self, n: usize) {
+        match self {
+            Column::Float(v) => v.extend(std::iter::repeat_n(None, n)),
+            Column::Int(v) => v.extend(std::iter::repeat_n(None, n)),
+            Column::UInt(v) => v.extend(std::iter::repeat_n(None, n)),
+            Column::Str(v) => v.extend(std::iter::repeat_n(None, n)),
+            Column::Bool(v) => v.extend(std::iter::repeat_n(None, n)),
+        }
+    }
+
+    /// Appends `other` (same type) or returns `false`.
+    fn append(&mut self, other: Column) -> bool {
+        match (self, other) {
+            (Column::Float(a), Column::Float(b)) => a.extend(b),
+            (Column::Int(a), Column::Int(b)) => a.extend(b),
+            (Column::UInt(a), Column::UInt(b)) => a.extend(b),
+            (Column::Str(a), Column::Str(b)) => a.extend(b),
+            (Column::Bool(a), Column::Bool(b)) => a.extend(b),
+            _ => return false,
+        }
+        true
+    }
+
+    /// The column as an Arrow array (nullable).
+    pub fn to_arrow(&self) -> ArrayRef {
+        match self {
+            Column::Float(v) => Arc::new(v.iter().copied().collect::<Float64Array>()),
+            Column::Int(v) => Arc::new(v.iter().copied().collect::<Int64Array>()),
+            Column::UInt(v) => Arc::new(v.iter().copied().collect::<UInt64Array>()),
+            Column::Str(v) => Arc::new(v.iter().map(|s| s.as_deref()).collect::<StringArray>()),
+            Column::Bool(v) => Arc::new(v.iter().copied().collect::<BooleanArray>()),
+        }
+    }
+
+    /// Converts an Arrow array, or `None` for types the analyses do not use (lists, dates...).
+    fn from_arrow(array: &ArrayRef) -> Result<Option<Column>, arrow::error::ArrowError> {
+        use arrow::compute::cast;
+        let dt = array.data_type();
+        let column = if dt.is_floating() {
+            let a = cast(array, &DataType::Float64)?;
+            Column::Float(a.as_primitive::<Float64Type>().iter().collect())
+        } else if dt.is_signed_integer() {
+            let a = cast(array, &DataType::Int64)?;
+            Column::Int(a.as_primitive::<Int64Type>().iter().collect())
+        } else if dt.is_unsigned_integer() {
+            let a = cast(array, &DataType::UInt64)?;
+            Column::UInt(a.as_primitive::<UInt64Type>().iter().collect())
+        } else if *dt == DataType::Boolean {
+            Column::Bool(array.as_boolean().iter().collect())
+        } else if is_text(dt) {
+            let a = cast(array, &DataType::Utf8)?;
+            Column::Str(
+                a.as_string::<i32>()
+                    .iter()
+                    .map(|s| s.map(str::to_owned))
+                    .collect(),
+            )
+        } else {
+            return Ok(None);
+        };
+        Ok(Some(column))
+    }
+}
+
+fn is_text(dt: &DataType) -> bool {
+    match dt {
+        DataType::Utf8 | DataType::LargeUtf8 | DataType::Utf8View => true,
+        DataType::Dictionary(_, value) => is_text(value),
+        _ => false,
+    }
+}
+
+/// One cell of a [`Table`], used as a grouping key and for display.
+///
+/// Values order as: null, booleans, numbers (by numeric value across the three number types),
+/// text. Floats order by `f64::total_cmp`, so the order is total and NaN is a value like any
+/// other.
+#[derive(Debug, Clone)]
+pub enum Value {
+    /// A missing value.
+    Null,
+    /// A boolean.
+    Bool(bool),
+    /// A signed integer.
+    Int(i64),
+    /// An unsigned integer.
+    UInt(u64),
+    /// A float.
+    Float(f64),
+    /// Text.
+    Str(String),
+}
+
+impl Value {
+    /// The value as a float (numbers only).
+    pub fn as_f64(&self) -> Option<f64> {
+        match self {
+            Value::Int(x) => Some(*x as f64),
+            Value::UInt(x) => Some(*x as f64),
+            Value::Float(x) => Some(*x),
+            _ => None,
+        }
+    }
+
+    fn class(&self) -> u8 {
+        match self {
+            Value::Null => 0,
+            Value::Bool(_) => 1,
+            Value::Int(_) | Value::UInt(_) | Value::Float(_) => 2,
+            Value::Str(_) => 3,
+        }
+    }
+
+    fn variant(&self) -> u8 {
+        match self {
+            Value::Null => 0,
+            Value::Bool(_) => 1,
+            Value::Int(_) => 2,
+            Value::UInt(_) => 3,
+            Value::Float(_) => 4,
+            Value::Str(_) => 5,
+        }
+    }
+}
+
+impl Ord for Value {
+    fn cmp(&self, other: &Self) -> Ordering {
+        match (self, other) {
+            (Value::Bool(a), Value::Bool(b)) => a.cmp(b),
+            (Value::Int(a), Value::Int(b)) => a.cmp(b),
+            (Value::UInt(a), Value::UInt(b)) => a.cmp(b),
+            (Value::Float(a), Value::Float(b)) => a.total_cmp(b),
+            (Value::Str(a), Value::Str(b)) => a.cmp(b),
+            _ if self.class() == 2 && other.class() == 2 => {
+                let (a, b) = (self.as_f64().unwrap_or(0.0), other.as_f64().unwrap_or(0.0));
+                a.total_cmp(&b)
+                    .then_with(|| self.variant().cmp(&other.variant()))
+            }
+            _ => self
+                .class()
+                .cmp(&other.class())
+                .then_with(|| self.variant().cmp(&other.variant())),
+        }
+    }
+}
+
+impl PartialOrd for Value {
+    fn partial_cmp(&self, other: &Self) -> Option<Ordering> {
+        Some(self.cmp(other))
+    }
+}
+
+impl PartialEq for Value {
+    fn eq(&self, other: &Self) -> bool {
+        self.cmp(other) == Ordering::Equal
+    }
+}
+
+impl Eq for Value {}
+
+impl Hash for Value {
+    fn hash<H: Hasher>(&self, state: &mut H) {
+        // Equal values have the same variant (see `cmp`), so hashing the variant is consistent.
+        self.variant().hash(state);
+        match self {
+            Value::Null => {}
+            Value::Bool(b) => b.hash(state),
+            Value::Int(x) => x.hash(state),
+            Value::UInt(x) => x.hash(state),
+            Value::Float(x) => x.to_bits().hash(state),
+            Value::Str(s) => s.hash(state),
+        }
+    }
+}
+
+impl fmt::Display for Value {
+    /// Floats in their shortest round-trip form (`0.1`, `9`), null as `null`.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Value::Null => f.pad("null"),
+            Value::Bool(b) => f.pad(if *b { "true" } else { "false" }),
+            Value::Int(x) => f.pad(&x.to_string()),
+            Value::UInt(x) => f.pad(&x.to_string()),
+            Value::Float(x) => f.pad(&x.to_string()),
+            Value::Str(s) => f.pad(s),
+        }
+    }
+}
+
+/// Named columns of equal length, read from a dataset or built by an analysis.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Table {
+    source: String,
+    names: Vec<String>,
+    columns: Vec<Column>,
+    rows: usize,
+    skipped: Vec<(String, String)>,
+}
+
+impl Table {
+    /// An empty table; `source` names it in error messages (a path, or what computed it).
+    pub fn new(source: impl Into<String>) -> Table {
+        Table {
+            source: source.into(),
+            names: Vec::new(),
+            columns: Vec::new(),
+            rows: 0,
+            skipped: Vec::new(),
+        }
+    }
+
+    /// Adds a column; replaces one of the same name.
+    ///
+    /// # Panics
+    /// If the table already has columns of another length (a bug in the caller).
+    pub fn push(&mut self, name: impl Into<String>, column: Column) {
+        let name = name.into();
+        if self.columns.is_empty() {
+            self.rows = column.len();
+        }
+        assert_eq!(
+            column.len(),
+            self.rows,
+            "column '{name}' has {} values but the table has {} rows",
+            column.len(),
+            self.rows
+        );
+        match self.names.iter().position(|n| *n == name) {
+            Some(i) => self.columns[i] = column,
+            None => {
+                self.names.push(name);
+                self.columns.push(column);
+            }
+        }
+    }
+
+    /// What the table was read from (or computed by), for messages.
+    pub fn source(&self) -> &str {
+        &self.source
+    }
+
+    /// Number of rows.
+    pub fn len(&self) -> usize {
+        self.rows
+    }
+
+    /// `true` when the table has no rows.
+    pub fn is_empty(&self) -> bool {
+        self.rows == 0
+    }
+
+    /// Column names, in file order.
+    pub fn names(&self) -> &[String] {
+        &self.names
+    }
+
+    /// Columns the reader left out because of their type, with the type: `(name, type)`.
+    pub fn skipped(&self) -> &[(String, String)] {
+        &self.skipped
+    }
+
+    /// `true` when the table has a column `name`.
+    pub fn has(&self, name: &str) -> bool {
+        self.names.iter().any(|n| n == name)
+    }
+
+    /// The column `name`, or an error listing the columns and the closest name.
+    pub fn column(&self, name: &str) -> Result<&Column, DatasetError> {
+        match self.names.iter().position(|n| n == name) {
+            Some(i) => Ok(&self.columns[i]),
+            None => Err(self.missing(name)),
+        }
+    }
+
+    /// The error for a column that is not there.
+    pub fn missing(&self, name: &str) -> DatasetError {
+        let hint = closest(name, self.names.iter().map(String::as_str))
+            .map(|c| format!(" (did you mean '{c}'?)"))
+            .unwrap_or_default();
+        let mut available = self.names.join(", ");
+        for (n, t) in &self.skipped {
+            available.push_str(&format!(", {n} (type {t}, not readable here)"));
+        }
+        DatasetError::MissingColumn {
+            dataset: self.source.clone(),
+            column: name.to_owned(),
+            hint,
+            available,
+        }
+    }
+
+    /// The numeric column `name` as floats (null stays `None`); `purpose` says who needs it
+    /// (e.g. `--metric`), for the error when the column is not numeric.
+    pub fn numeric(&self, name: &str, purpose: &str) -> Result<Vec<Option<f64>>, DatasetError> {
+        let column = self.column(name)?;
+        if !column.is_numeric() {
+            return Err(DatasetError::NotNumeric {
+                dataset: self.source.clone(),
+                column: name.to_owned(),
+                found: column.type_name(),
+                purpose: purpose.to_owned(),
+                numeric: self.numeric_names().join(", "),
+            });
+        }
+        Ok((0..self.rows).map(|i| column.f64_at(i)).collect())
+    }
+
+    /// Names of the numeric columns.
+    pub fn numeric_names(&self) -> Vec<String> {
+        self.names
+            .iter()
+            .zip(&self.columns)
+            .filter(|(_, c)| c.is_numeric())
+            .map(|(n, _)| n.clone())
+            .collect()
+    }
+
+    /// The rows at `rows`, in that order, as a new table with the same source.
+    pub fn take(&self, rows: &[usize]) -> Table {
+        Table {
+            source: self.source.clone(),
+            names: self.names.clone(),
+            columns: self.columns.iter().map(|c| c.take(rows)).collect(),
+            rows: rows.len(),
+            skipped: self.skipped.clone(),
+        }
+    }
+
+    /// The table as one Arrow record batch (every field nullable), e.g. for `write_parquet`.
+    pub fn to_record_batch(&self) -> Result<RecordBatch, arrow::error::ArrowError> {
+        let arrays: Vec<ArrayRef> = self.columns.iter().map(Column::to_arrow).collect();
+        let fields: Vec<Field> = self
+            .names
+            .iter()
+            .zip(&arrays)
+            .map(|(n, a)| Field::new(n, a.data_type().clone(), true))
+            .collect();
+        RecordBatch::try_new(Arc::new(Schema::new(fields)), arrays)
+    }
+
+    /// Appends a file's table, filling columns one side lacks with nulls.
+    fn append(&mut self, other: Table, path: &Path) -> Result<(), DatasetError> {
+        let before = self.rows;
+        let mut seen = vec![false; self.names.len()];
+        for (name, column) in other.names.into_iter().zip(other.columns) {
+            let added = column.len();
+            match self.names.iter().position(|n| *n == name) {
+                Some(i) => {
+                    let (expected, found) = (self.columns[i].type_name(), column.type_name());
+                    if !self.columns[i].append(column) {
+                        return Err(DatasetError::SchemaMismatch {
+                            path: path.to_path_buf(),
+                            column: name,
+                            expected,
+                            found,
+                        });
+                    }
+                    seen[i] = true;
+                }
+                None => {
+                    let mut filled = column.empty_like();
+                    filled.push_nulls(before);
+                    filled.append(column);
+                    self.names.push(name);
+                    self.columns.push(filled);
+                    seen.push(true);
+                }
+            }
+            debug_assert_eq!(added, other.rows);
+        }
+        for (column, seen) in self.columns.iter_mut().zip(seen) {
+            if !seen {
+                column.push_nulls(other.rows);
+            }
+        }
+        self.rows += other.rows;
+        for s in other.skipped {
+            if !self.skipped.contains(&s) {
+                self.skipped.push(s);
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The closest of `candidates` to `name`, ignoring case, if it is a plausible typo: the
+/// smallest edit distance to the whole candidate or to one of its `_`-separated words
+/// (`kapa` -> `kappa_coeff`, `cost` -> `cost_mf`), at most a third of the length compared (at
+/// least 1); ties go to the shorter candidate.
+pub fn closest<'a>(name: &str, candidates: impl Iterator<Item = &'a str>) -> Option<&'a str> {
+    let target = name.to_lowercase();
+    let allowed = |other: &str| (target.chars().count().max(other.chars().count()) / 3).max(1);
+    candidates
+        .filter_map(|c| {
+            let lower = c.to_lowercase();
+            std::iter::once(lower.as_str())
+                .chain(lower.split('_'))
+                .map(|part| (edit_distance(&target, part), part))
+                .filter(|&(d, part)| d <= allowed(part))
+                .map(|(d, _)| d)
+                .min()
+                .map(|d| (d, c.len(), c))
+        })
+        .min()
+        .map(|(_, _, c)| c)
+}
+
+/// Levenshtein distance between two strings, by characters.
+fn edit_distance(a: &str, b: &str) -> usize {
+    let b: Vec<char> = b.chars().collect();
+    let mut row: Vec<usize> = (0..=b.len()).collect();
+    for (i, ca) in a.chars().enumerate() {
+        let mut diagonal = row[0];
+        row[0] = i + 1;
+        for (j, &cb) in b.iter().enumerate() {
+            let substitution = diagonal + usize::from(ca != cb);
+            diagonal = row[j + 1];
+            row[j + 1] = substitution.min(row[j] + 1).min(row[j + 1] + 1);
+        }
+    }
+    row[b.len()]
+}
+
+/// Reads one Parquet file into a table.
+pub fn read_parquet_file(path: &Path) -> Result<Table, DatasetError> {
+    let file = File::open(path).map_err(|source| DatasetError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let reader = ParquetRecordBatchReaderBuilder::try_new(file)
+        .and_then(|b| b.build())
+        .map_err(|source| DatasetError::Parquet {
+            path: path.to_path_buf(),
+            source,
+        })?;
+    let arrow_err = |source| DatasetError::Arrow {
+        path: path.to_path_buf(),
+        source,
+    };
+    let schema = reader.schema();
+    let mut table = Table::new(path.display().to_string());
+    let mut kept: Vec<Option<Column>> = Vec::new();
+    for field in schema.fields() {
+        // Probe each type on an empty array: unsupported columns are skipped, not fatal.
+        let empty = arrow::array::new_empty_array(field.data_type());
+        let column = Column::from_arrow(&empty).map_err(arrow_err)?;
+        if column.is_none() {
+            table
+                .skipped
+                .push((field.name().clone(), field.data_type().to_string()));
+        }
+        kept.push(column);
+    }
+    for batch in reader {
+        let batch = batch.map_err(arrow_err)?;
+        for (slot, array) in kept.iter_mut().zip(batch.columns()) {
+            if let Some(column) = slot {
+                let part = Column::from_arrow(array)
+                    .map_err(arrow_err)?
+                    .expect("type probed above");
+                column.append(part);
+            }
+        }
+    }
+    for (field, column) in schema.fields().iter().zip(kept) {
+        if let Some(column) = column {
+            table.push(field.name().clone(), column);
+        }
+    }
+    Ok(table)
+}
+
+/// The files of table `name` (`runs` or `series`) at `path`: `path` itself if it is a file;
+/// else `path/NAME.parquet` (`mbmf run`); else `path/NAME/part-*.parquet` (`mbmf sweep`; any
+/// `*.parquet` there if none is named `part-*`); else the `part-*.parquet` files of `path` (the
+/// `NAME/` folder itself). Hidden files (temporary files of a writer still at work) are
+/// ignored; parts are read in name order.
+pub fn dataset_files(path: &Path, name: &str) -> Result<Vec<PathBuf>, DatasetError> {
+    let not_found = |detail: String| DatasetError::NotFound {
+        path: path.to_path_buf(),
+        table: name.to_owned(),
+        detail,
+    };
+    if path.is_file() {
+        return Ok(vec![path.to_path_buf()]);
+    }
+    if !path.is_dir() {
+        return Err(not_found("no such file or folder".to_owned()));
+    }
+    let single = path.join(format!("{name}.parquet"));
+    let folder = path.join(name);
+    // Only `part-*` files when there are any: an analysis run on the `NAME/` folder itself
+    // writes its own results (pareto.parquet, ...) there, which are not runs.
+    let parts = if folder.is_dir() {
+        let parts = parquet_files(&folder, |n| n.starts_with("part-"))?;
+        if parts.is_empty() {
+            parquet_files(&folder, |_| true)?
+        } else {
+            parts
+        }
+    } else {
+        Vec::new()
+    };
+    if single.is_file() {
+        if !parts.is_empty() {
+            return Err(not_found(format!(
+                "it holds both {} and {} part files in {}; pass the one you mean",
+                single.display(),
+                parts.len(),
+                folder.display()
+            )));
+        }
+        return Ok(vec![single]);
+    }
+    if !parts.is_empty() {
+        return Ok(parts);
+    }
+    let own = parquet_files(path, |n| n.starts_with("part-"))?;
+    if !own.is_empty() {
+        return Ok(own);
+    }
+    let mut entries: Vec<String> = std::fs::read_dir(path)
+        .map_err(|source| DatasetError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?
+        .filter_map(|e| e.ok())
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| !n.starts_with('.'))
+        .collect();
+    entries.sort();
+    let shown = if entries.is_empty() {
+        "the folder is empty".to_owned()
+    } else {
+        let more = entries.len().saturating_sub(10);
+        let mut s = format!(
+            "the folder holds {}",
+            entries[..entries.len().min(10)].join(", ")
+        );
+        if more > 0 {
+            s.push_str(&format!(" and {more} more"));
+        }
+        s
+    };
+    Err(not_found(shown))
+}
+
+fn parquet_files(dir: &Path, keep: impl Fn(&str) -> bool) -> Result<Vec<PathBuf>, DatasetError> {
+    let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
+        .map_err(|source| DatasetError::Io {
+            path: dir.to_path_buf(),
+            source,
+        })?
+        .filter_map(|e| e.ok())
+        .map(|e| e.path())
+        .filter(|p| {
+            let n = p
+                .file_name()
+                .map(|n| n.to_string_lossy().into_owned())
+                .unwrap_or_default();
+            !n.starts_with('.') && n.ends_with(".parquet") && keep(&n) && p.is_file()
+        })
+        .collect();
+    files.sort();
+    Ok(files)
+}
+
+/// Reads table `name` (`runs` or `series`) of the dataset at `path` (see [`dataset_files`]).
+/// Files are concatenated; a column missing from some files is null there.
+pub fn read_dataset(path: &Path, name: &str) -> Result<Table, DatasetError> {
+    let files = dataset_files(path, name)?;
+    let mut table = Table::new(match files.as_slice() {
+        [one] => one.display().to_string(),
+        many => format!("{} ({} {name} files)", path.display(), many.len()),
+    });
+    for file in &files {
+        let part = read_parquet_file(file)?;
+        table.append(part, file)?;
+    }
+    Ok(table)
+}
+
+/// Reads the `runs` table of a dataset (see [`read_dataset`]).
+pub fn read_runs(path: &Path) -> Result<Table, DatasetError> {
+    read_dataset(path, "runs")
+}
+
+/// The folder analyses write into by default: `path` if it is a folder, else its parent.
+pub fn output_folder(path: &Path) -> PathBuf {
+    if path.is_dir() {
+        path.to_path_buf()
+    } else {
+        match path.parent() {
+            Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+            _ => PathBuf::from("."),
+        }
+    }
+}
+
+/// The parameter columns `mbmf run` and `mbmf sweep` write (identity first: `run_index`,
+/// `seed`), taken from [`crate::output::param_columns`] so the two never drift apart.
+pub fn parameter_columns() -> &'static [String] {
+    static NAMES: OnceLock<Vec<String>> = OnceLock::new();
+    NAMES.get_or_init(|| {
+        let config = crate::batch::RunConfig {
+            params: crate::params::Params::default(),
+            seed: 0,
+            run_index: 0,
+        };
+        let mut cols = crate::output::Columns::default();
+        crate::output::param_columns(&mut cols, "tidy1", std::iter::once(&config));
+        cols.finish()
+            .map(|b| {
+                b.schema()
+                    .fields()
+                    .iter()
+                    .map(|f| f.name().clone())
+                    .collect()
+            })
+            .unwrap_or_default()
+    })
+}
+
+/// Columns that identify a run rather than configure it.
+pub const RUN_IDENTITY: [&str; 2] = ["run_index", "seed"];
+
+/// The configuration columns of `table`: its parameter columns except `run_index` and `seed`,
+/// in the order `mbmf` writes them.
+pub fn configuration_columns(table: &Table) -> Vec<String> {
+    parameter_columns()
+        .iter()
+        .filter(|n| !RUN_IDENTITY.contains(&n.as_str()) && table.has(n))
+        .cloned()
+        .collect()
+}
+
+/// Groups the rows of `table` by their values in `keys`: one `(key values, row indices)` per
+/// distinct combination, in ascending key order (numbers numerically), rows in table order.
+pub fn group_rows(
+    table: &Table,
+    keys: &[String],
+) -> Result<Vec<(Vec<Value>, Vec<usize>)>, DatasetError> {
+    let columns: Vec<&Column> = keys
+        .iter()
+        .map(|k| table.column(k))
+        .collect::<Result<_, _>>()?;
+    let mut groups: BTreeMap<Vec<Value>, Vec<usize>> = BTreeMap::new();
+    for row in 0..table.len() {
+        let key: Vec<Value> = columns.iter().map(|c| c.value(row)).collect();
+        groups.entry(key).or_default().push(row);
+    }
+    Ok(groups.into_iter().collect())
+}
+
+/// The columns among `keys` that take more than one value over `rows` of `table`.
+pub fn varying_columns(table: &Table, keys: &[String], rows: &[usize]) -> Vec<String> {
+    keys.iter()
+        .filter(|k| {
+            table.column(k).is_ok_and(|c| {
+                let mut values = rows.iter().map(|&r| c.value(r));
+                match values.next() {
+                    Some(first) => values.any(|v| v != first),
+                    None => false,
+                }
+            })
+        })
+        .cloned()
+        .collect()
+}
+
+/// The distinct values of a column, sorted, joined by ", " (at most `limit`, then "...").
+pub fn distinct_values(column: &Column, limit: usize) -> String {
+    let values: BTreeSet<Value> = (0..column.len()).map(|i| column.value(i)).collect();
+    let mut shown: Vec<String> = values.iter().take(limit).map(|v| v.to_string()).collect();
+    if values.len() > limit {
+        shown.push(format!("... ({} values)", values.len()));
+    }
+    shown.join(", ")
+}
+
+/// A row filter `COLUMN=VALUE` (`--where`): keeps the rows whose value equals `VALUE`, compared
+/// as a number for numeric columns (`kappa_coeff=9` matches 9.0), as text otherwise; booleans
+/// accept true/false/on/off/1/0; `null` matches missing values.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Filter {
+    /// The column.
+    pub column: String,
+    /// The value as written.
+    pub value: String,
+}
+
+impl Filter {
+    /// Parses `COLUMN=VALUE`.
+    pub fn parse(text: &str) -> Result<Filter, DatasetError> {
+        match text.split_once('=') {
+            Some((c, v)) if !c.trim().is_empty() => Ok(Filter {
+                column: c.trim().to_owned(),
+                value: v.trim().to_owned(),
+            }),
+            _ => Err(DatasetError::BadFilter {
+                text: text.to_owned(),
+                reason: "expected COLUMN=VALUE, e.g. --where controller=ec or --where budget=50"
+                    .to_owned(),
+            }),
+        }
+    }
+
+    fn text(&self) -> String {
+        format!("{}={}", self.column, self.value)
+    }
+
+    /// Whether row `i` of `column` matches; errors when the value cannot be of that type.
+    fn matcher<'a>(
+        &'a self,
+        column: &'a Column,
+    ) -> Result<impl Fn(usize) -> bool + 'a, DatasetError> {
+        let bad = |reason: String| DatasetError::BadFilter {
+            text: self.text(),
+            reason,
+        };
+        enum Want {
+            Null,
+            Num(f64),
+            Str(String),
+            Bool(bool),
+        }
+        let want = if self.value == "null" {
+            Want::Null
+        } else if column.is_numeric() {
+            Want::Num(self.value.parse::<f64>().map_err(|_| {
+                bad(format!(
+                    "column '{}' holds numbers; '{}' is not a number",
+                    self.column, self.value
+                ))
+            })?)
+        } else if let Column::Bool(_) = column {
+            Want::Bool(match self.value.to_lowercase().as_str() {
+                "true" | "on" | "1" => true,
+                "false" | "off" | "0" => false,
+                _ => {
+                    return Err(bad(format!(
+                        "column '{}' holds booleans; use true or false",
+                        self.column
+                    )));
+                }
+            })
+        } else {
+            Want::Str(self.value.clone())
+        };
+        Ok(move |i: usize| match (&want, column.value(i)) {
+            (Want::Null, Value::Null) => true,
+            (Want::Num(x), v) => v.as_f64() == Some(*x),
+            (Want::Str(s), Value::Str(v)) => *s == v,
+            (Want::Bool(b), Value::Bool(v)) => *b == v,
+            _ => false,
+        })
+    }
+
+    /// The rows of `table` that match every filter (all of them when `filters` is empty).
+    /// Errors name the filter and, when nothing matches, the values present.
+    pub fn apply_all(table: &Table, filters: &[Filter]) -> Result<Table, DatasetError> {
+        let mut rows: Vec<usize> = (0..table.len()).collect();
+        for f in filters {
+            let column = table.column(&f.column)?;
+            let matches = f.matcher(column)?;
+            let kept: Vec<usize> = rows.iter().copied().filter(|&r| matches(r)).collect();
+            if kept.is_empty() {
+                let remaining = column.take(&rows);
+                return Err(DatasetError::NoMatch {
+                    dataset: table.source().to_owned(),
+                    text: f.text(),
+                    column: f.column.clone(),
+                    values: distinct_values(&remaining, 20),
+                });
+            }
+            rows = kept;
+        }
+        Ok(table.take(&rows))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn closest_names_catch_typos_but_not_unrelated_words() {
+        let names = ["total_reward", "cost_total", "mean_entropy_chosen"];
+        assert_eq!(
+            closest("total_rewrd", names.into_iter()),
+            Some("total_reward")
+        );
+        assert_eq!(closest("COST_TOTAL", names.into_iter()), Some("cost_total"));
+        assert_eq!(closest("banana", names.into_iter()), None);
+        assert_eq!(
+            closest("kapa", ["kappa_coeff", "tau"].into_iter()),
+            Some("kappa_coeff")
+        );
+        assert_eq!(closest("cost", names.into_iter()), Some("cost_total"));
+    }
+
+    #[test]
+    fn edit_distance_counts_insertions_deletions_and_substitutions() {
+        assert_eq!(edit_distance("kitten", "sitting"), 3);
+        assert_eq!(edit_distance("", "abc"), 3);
+        assert_eq!(edit_distance("abc", "abc"), 0);
+    }
+
+    #[test]
+    fn values_order_numbers_numerically_and_keep_integer_precision() {
+        let mut v = vec![
+            Value::UInt(50),
+            Value::Float(7.5),
+            Value::Str("a".into()),
+            Value::UInt(10),
+            Value::Null,
+        ];
+        v.sort();
+        let shown: Vec<String> = v.iter().map(|x| x.to_string()).collect();
+        assert_eq!(shown, ["null", "7.5", "10", "50", "a"]);
+        assert_ne!(Value::UInt(1 << 60), Value::UInt((1 << 60) + 1));
+        assert_eq!(Value::Float(0.1).to_string(), "0.1");
+        assert_eq!(Value::Float(9.0).to_string(), "9");
+    }
+
+    #[test]
+    fn parameter_columns_start_with_the_run_identity() {
+        let names = parameter_columns();
+        assert_eq!(&names[..2], ["run_index", "seed"]);
+        assert!(names.iter().any(|n| n == "kappa_coeff"));
+        assert!(names.iter().any(|n| n == "budget"));
+    }
+
+    #[test]
+    fn filters_compare_numbers_as_numbers_and_report_the_values_present() {
+        let mut t = Table::new("test");
+        t.push(
+            "kappa",
+            Column::Float(vec![Some(9.0), Some(3.0), Some(9.0)]),
+        );
+        t.push(
+            "controller",
+            Column::Str(vec![
+                Some("ec".into()),
+                Some("mf".into()),
+                Some("mf".into()),
+            ]),
+        );
+        let f = |s: &str| Filter::parse(s).unwrap();
+        let kept = Filter::apply_all(&t, &[f("kappa=9"), f("controller=mf")]).unwrap();
+        assert_eq!(kept.len(), 1);
+        assert_eq!(kept.column("kappa").unwrap().value(0), Value::Float(9.0));
+        let e = Filter::apply_all(&t, &[f("controller=rnd")]).unwrap_err();
+        assert!(
+            e.to_string()
+                .contains("values of 'controller' in the data: ec, mf"),
+            "{e}"
+        );
+        let e = Filter::apply_all(&t, &[f("kappa=high")]).unwrap_err();
+        assert!(e.to_string().contains("'high' is not a number"), "{e}");
+        assert!(Filter::parse("kappa").is_err());
+    }
+}

@@ -1,0 +1,291 @@
+//! Runs aggregated by configuration, and the Pareto front over chosen objectives
+//! (`mbmf pareto`).
+//!
+//! A configuration is one combination of the parameter columns except `run_index` and `seed`
+//! (the seeds are the replicates). Each numeric result is averaged over a configuration's runs
+//! with a 95% Student-t confidence interval ([`stats::ci95_half_width`]); missing values (e.g.
+//! `mean_entropy_chosen` of a run that made no decision) are left out of that result's mean.
+//! The front is computed on the means: a configuration whose mean of some objective is
+//! missing is left out of the ranking (its rank is empty), never silently placed on the front.
+
+use crate::analysis::AnalysisError;
+use crate::analysis::dataset::{
+    Column, RUN_IDENTITY, Table, Value, configuration_columns, group_rows, parameter_columns,
+    varying_columns,
+};
+use crate::analysis::pareto::{self, Direction, Objective};
+use crate::analysis::stats;
+
+/// The paper's three objectives: maximise total reward, minimise total inference cost,
+/// maximise learning quality (minimise the controlling expert's mean normalised entropy).
+pub const DEFAULT_OBJECTIVES: &str = "total_reward:max,cost_total:min,mean_entropy_chosen:min";
+
+/// [`DEFAULT_OBJECTIVES`], parsed.
+pub fn default_objectives() -> Vec<Objective> {
+    DEFAULT_OBJECTIVES
+        .split(',')
+        .map(|s| Objective::parse(s).expect("the defaults parse"))
+        .collect()
+}
+
+/// Runs grouped by configuration, with every numeric result averaged over each group.
+#[derive(Debug, Clone)]
+pub struct Configurations {
+    /// The dataset the runs came from.
+    pub source: String,
+    /// The configuration columns, in the order `mbmf` writes them.
+    pub keys: Vec<String>,
+    /// The configuration columns that take more than one value (the ones worth showing).
+    pub varying: Vec<String>,
+    /// Each configuration's values of `keys`, in ascending order of those values.
+    pub values: Vec<Vec<Value>>,
+    /// The key columns with one row per configuration, typed as in the dataset.
+    pub key_columns: Vec<Column>,
+    /// Each configuration's rows in the runs table.
+    pub rows: Vec<Vec<usize>>,
+    /// The averaged results: numeric columns other than the keys and the run identity (plus
+    /// any key asked for as a metric).
+    pub metrics: Vec<String>,
+    /// `mean[c][m]`: mean of metric `m` over configuration `c`'s runs (NaN if none has one).
+    pub mean: Vec<Vec<f64>>,
+    /// `ci95[c][m]`: half-width of the 95% confidence interval of that mean (NaN below 2 runs).
+    pub ci95: Vec<Vec<f64>>,
+    /// `count[c][m]`: the runs with a value of metric `m`.
+    pub count: Vec<Vec<usize>>,
+}
+
+impl Configurations {
+    /// Groups `table`'s runs by configuration and averages every numeric result; the columns
+    /// in `extra` are averaged too even if they are configuration columns (an objective such as
+    /// `budget:min`).
+    pub fn from_runs(table: &Table, extra: &[&str]) -> Result<Configurations, AnalysisError> {
+        let keys = configuration_columns(table);
+        if keys.is_empty() {
+            return Err(AnalysisError::NotARunsTable {
+                dataset: table.source().to_owned(),
+                expected: parameter_columns()[2..].join(", "),
+            });
+        }
+        for name in extra {
+            table.numeric(name, "an objective")?;
+        }
+        let mut metrics: Vec<String> = table
+            .numeric_names()
+            .into_iter()
+            .filter(|n| !keys.contains(n) && !RUN_IDENTITY.contains(&n.as_str()))
+            .collect();
+        for name in extra {
+            if !metrics.iter().any(|m| m == name) {
+                metrics.push((*name).to_owned());
+            }
+        }
+        let metric_values: Vec<Vec<Option<f64>>> = metrics
+            .iter()
+            .map(|m| table.numeric(m, "averaging"))
+            .collect::<Result<_, _>>()?;
+        let groups = group_rows(table, &keys)?;
+        let all_rows: Vec<usize> = (0..table.len()).collect();
+        let varying = varying_columns(table, &keys, &all_rows);
+        let first_rows: Vec<usize> = groups.iter().map(|(_, rows)| rows[0]).collect();
+        let key_columns = keys
+            .iter()
+            .map(|k| table.column(k).map(|c| c.take(&first_rows)))
+            .collect::<Result<_, _>>()?;
+        let (mut mean, mut ci95, mut count) = (Vec::new(), Vec::new(), Vec::new());
+        for (_, rows) in &groups {
+            let (mut m, mut c, mut k) = (Vec::new(), Vec::new(), Vec::new());
+            for values in &metric_values {
+                let xs: Vec<f64> = rows.iter().filter_map(|&r| values[r]).collect();
+                m.push(stats::mean(&xs));
+                c.push(stats::ci95_half_width(&xs));
+                k.push(xs.len());
+            }
+            mean.push(m);
+            ci95.push(c);
+            count.push(k);
+        }
+        let (values, rows) = groups.into_iter().unzip();
+        Ok(Configurations {
+            source: table.source().to_owned(),
+            keys,
+            varying,
+            values,
+            key_columns,
+            rows,
+            metrics,
+            mean,
+            ci95,
+            count,
+        })
+    }
+
+    /// Number of configurations.
+    pub fn len(&self) -> usize {
+        self.values.len()
+    }
+
+    /// `true` when there are no configurations.
+    pub fn is_empty(&self) -> bool {
+        self.values.is_empty()
+    }
+
+    /// Index of metric `name` in [`Configurations::metrics`].
+    pub fn metric_index(&self, name: &str) -> Option<usize> {
+        self.metrics.iter().position(|m| m == name)
+    }
+
+    /// Configuration `c`'s value of the key column `name`.
+    pub fn key_value(&self, c: usize, name: &str) -> Option<&Value> {
+        self.keys
+            .iter()
+            .position(|k| k == name)
+            .map(|i| &self.values[c][i])
+    }
+
+    /// A short label of configuration `c` from the varying columns: text values bare, others
+    /// as `name=value` (e.g. `ec, kappa_coeff=9`); `all runs` when nothing varies.
+    pub fn label(&self, c: usize) -> String {
+        let parts: Vec<String> = self
+            .varying
+            .iter()
+            .filter_map(|name| {
+                self.key_value(c, name).map(|v| match v {
+                    Value::Str(s) => s.clone(),
+                    other => format!("{name}={other}"),
+                })
+            })
+            .collect();
+        if parts.is_empty() {
+            "all runs".to_owned()
+        } else {
+            parts.join(", ")
+        }
+    }
+}
+
+/// Configurations ranked by non-domination over some objectives, with a knee point.
+#[derive(Debug, Clone)]
+pub struct Front {
+    /// The aggregated configurations.
+    pub configs: Configurations,
+    /// The objectives, in the order given.
+    pub objectives: Vec<Objective>,
+    /// Index in `configs.metrics` of each objective.
+    pub objective_metric: Vec<usize>,
+    /// Non-domination rank of each configuration on the objective means (0 = the front), or
+    /// `None` when a mean is missing.
+    pub rank: Vec<Option<usize>>,
+    /// The knee of the front ([`pareto::knee_point`] on the front's means): the front point
+    /// nearest the ideal point once each objective is rescaled to [0, 1] over the front.
+    pub knee: Option<usize>,
+}
+
+impl Front {
+    /// Aggregates `table`'s runs by configuration and ranks them on `objectives`.
+    pub fn compute(table: &Table, objectives: &[Objective]) -> Result<Front, AnalysisError> {
+        if objectives.is_empty() {
+            return Err(AnalysisError::InvalidArgument {
+                name: "--objectives",
+                value: String::new(),
+                accepted: "give at least one NAME:max or NAME:min",
+            });
+        }
+        let names: Vec<&str> = objectives.iter().map(|o| o.name.as_str()).collect();
+        let configs = Configurations::from_runs(table, &names)?;
+        let objective_metric: Vec<usize> = names
+            .iter()
+            .map(|n| configs.metric_index(n).expect("objectives are averaged"))
+            .collect();
+        let point = |c: usize| -> Vec<f64> {
+            objective_metric
+                .iter()
+                .map(|&m| configs.mean[c][m])
+                .collect()
+        };
+        let eligible: Vec<usize> = (0..configs.len())
+            .filter(|&c| point(c).iter().all(|v| v.is_finite()))
+            .collect();
+        let points: Vec<Vec<f64>> = eligible.iter().map(|&c| point(c)).collect();
+        let dirs: Vec<Direction> = objectives.iter().map(|o| o.direction).collect();
+        let ranks = pareto::non_dominated_ranks(&points, &dirs);
+        let mut rank = vec![None; configs.len()];
+        for (&c, &r) in eligible.iter().zip(&ranks) {
+            rank[c] = Some(r);
+        }
+        let front: Vec<usize> = (0..configs.len()).filter(|&c| rank[c] == Some(0)).collect();
+        let front_points: Vec<Vec<f64>> = front.iter().map(|&c| point(c)).collect();
+        let knee = pareto::knee_point(&front_points, &dirs).map(|i| front[i]);
+        Ok(Front {
+            configs,
+            objectives: objectives.to_vec(),
+            objective_metric,
+            rank,
+            knee,
+        })
+    }
+
+    /// The front's configurations, best first in the first objective.
+    pub fn members(&self) -> Vec<usize> {
+        let mut front: Vec<usize> = (0..self.configs.len())
+            .filter(|&c| self.rank[c] == Some(0))
+            .collect();
+        let m = self.objective_metric[0];
+        let sign = match self.objectives[0].direction {
+            Direction::Maximize => -1.0,
+            Direction::Minimize => 1.0,
+        };
+        front.sort_by(|&a, &b| {
+            (sign * self.configs.mean[a][m]).total_cmp(&(sign * self.configs.mean[b][m]))
+        });
+        front
+    }
+
+    /// Mean of objective `o` for configuration `c`.
+    pub fn objective_mean(&self, c: usize, o: usize) -> f64 {
+        self.configs.mean[c][self.objective_metric[o]]
+    }
+
+    /// CI half-width of objective `o` for configuration `c`.
+    pub fn objective_ci95(&self, c: usize, o: usize) -> f64 {
+        self.configs.ci95[c][self.objective_metric[o]]
+    }
+
+    /// One row per configuration: its parameters, `n` (runs), `METRIC_mean` and `METRIC_ci95`
+    /// for every averaged result (null when undefined), `rank` (null when an objective mean is
+    /// missing), `front` and `knee`.
+    pub fn to_table(&self) -> Table {
+        let c = &self.configs;
+        let mut t = Table::new(format!("Pareto analysis of {}", c.source));
+        for (name, column) in c.keys.iter().zip(&c.key_columns) {
+            t.push(name.clone(), column.clone());
+        }
+        t.push(
+            "n",
+            Column::UInt(c.rows.iter().map(|r| Some(r.len() as u64)).collect()),
+        );
+        let finite = |x: f64| x.is_finite().then_some(x);
+        for (m, name) in c.metrics.iter().enumerate() {
+            t.push(
+                format!("{name}_mean"),
+                Column::Float(c.mean.iter().map(|row| finite(row[m])).collect()),
+            );
+            t.push(
+                format!("{name}_ci95"),
+                Column::Float(c.ci95.iter().map(|row| finite(row[m])).collect()),
+            );
+        }
+        t.push(
+            "rank",
+            Column::UInt(self.rank.iter().map(|r| r.map(|r| r as u64)).collect()),
+        );
+        t.push(
+            "front",
+            Column::Bool(self.rank.iter().map(|r| Some(*r == Some(0))).collect()),
+        );
+        t.push(
+            "knee",
+            Column::Bool((0..c.len()).map(|i| Some(self.knee == Some(i))).collect()),
+        );
+        t
+    }
+}
