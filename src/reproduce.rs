@@ -34,6 +34,8 @@ use crate::plot;
 pub const FULL_BUDGETS: [u32; 7] = [10, 20, 30, 50, 100, 200, 300];
 /// Budget of both interaction types in task 2 (decision: the paper says "several hundred").
 pub const TASK2_BUDGET: u32 = 300;
+/// Share of the experiment over which the "fast start" is measured.
+const EARLY: f64 = 0.2;
 /// The paper's four controllers.
 const CONTROLLERS: [Controller; 4] = [
     Controller::Mf,
@@ -160,6 +162,21 @@ impl Outcome {
             })
             .collect()
     }
+    /// Cumulative reward at the first checkpoint at or after `fraction` of the experiment: how
+    /// early a controller accumulates reward ("fast start", claims 1 and 2).
+    fn early_reward(&self, fraction: f64) -> Vec<f64> {
+        self.series
+            .iter()
+            .map(|s| {
+                let end = s.last().map_or(0, |c| c.step);
+                let at = (f64::from(end) * fraction).ceil() as u32;
+                s.iter()
+                    .find(|c| c.step >= at)
+                    .map_or(f64::NAN, |c| c.cum_reward)
+            })
+            .collect()
+    }
+
     /// Mean and standard error across runs of a series value, per checkpoint (NaNs skipped).
     fn curve(&self, f: impl Fn(&Checkpoint) -> f64) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
         let n_points = self.series.iter().map(Vec::len).min().unwrap_or(0);
@@ -537,20 +554,24 @@ impl Report<'_> {
         let t1 = |c| self.get("tidy1", c, NoHuman);
         let mut claims = Vec::new();
 
-        // Claim 1.
+        // Claim 1. "Earlier" is measured as reward over the first 20% of the experiment: with
+        // q_init = 0 every controller random-walks until its first reward (SPEC 7), so the first
+        // reward step cannot separate them; it is reported as well.
         let (mf, mb) = (t1(Mf), t1(Mb));
-        let p_early = p_greater(&mf.first_reward(), &mb.first_reward());
+        let p_early = p_greater(&mb.early_reward(EARLY), &mf.early_reward(EARLY));
         let p_final = p_greater(&mf.last10(), &mb.last10());
         claims.push(Claim {
             id: "1",
             text: "Without interaction, MB accumulates reward earlier than MF, but MF reaches a higher final rate.",
             verdict: verdict(&[p_early < 0.05, p_final < 0.05]),
             evidence: format!(
-                "First reward step (mean): MB {:.0}, MF {:.0} (one-sided p that MF is later = {}). \
+                "Reward over the first 20% of steps: MB {}, MF {} (one-sided p that MB is higher = {}); first reward step (mean): MB {:.0}, MF {:.0}. \
                  Reward in the last 10% of steps: MF {}, MB {} (one-sided p that MF is higher = {}).",
+                mean_sd(&mb.early_reward(EARLY)),
+                mean_sd(&mf.early_reward(EARLY)),
+                fmt_p(p_early),
                 stats::mean(&mb.first_reward()),
                 stats::mean(&mf.first_reward()),
-                fmt_p(p_early),
                 mean_sd(&mf.last10()),
                 mean_sd(&mb.last10()),
                 fmt_p(p_final)
@@ -562,17 +583,17 @@ impl Report<'_> {
         let mut ev = String::new();
         for c in [Rnd, Ec] {
             let o = t1(c);
-            let p_later_than_mb = p_greater(&o.first_reward(), &mb.first_reward());
+            let p_slower_than_mb = p_greater(&mb.early_reward(EARLY), &o.early_reward(EARLY));
             let p_below_mf = p_greater(&mf.last10(), &o.last10());
-            ok.push(p_later_than_mb >= 0.05);
+            ok.push(p_slower_than_mb >= 0.05);
             ok.push(p_below_mf >= 0.05);
             let _ = write!(
                 ev,
-                "{}: first reward at {:.0} (MB {:.0}; p that it is later than MB's = {}), last-10% reward {} (MF {}; p that it is below MF's = {}). ",
+                "{}: reward over the first 20% {} (MB {}; p that it is below MB's = {}), last-10% reward {} (MF {}; p that it is below MF's = {}). ",
                 c.name().to_uppercase(),
-                stats::mean(&o.first_reward()),
-                stats::mean(&mb.first_reward()),
-                fmt_p(p_later_than_mb),
+                mean_sd(&o.early_reward(EARLY)),
+                mean_sd(&mb.early_reward(EARLY)),
+                fmt_p(p_slower_than_mb),
                 mean_sd(&o.last10()),
                 mean_sd(&mf.last10()),
                 fmt_p(p_below_mf)
