@@ -313,7 +313,7 @@ fn print_comparison(c: &Comparison) {
             ]
         })
         .collect();
-    print!("{}", render(&headers, &rows, 2));
+    print!("{}", render_aligned(&headers, &rows, |i| i < 2 || i == 5));
     println!(
         "U = Mann-Whitney U of a; effect = rank-biserial correlation P(a > b) - P(a < b), in \
          [-1, 1]; * p_holm < 0.05, ** < 0.01, *** < 0.001; exact = exact null distribution \

@@ -897,12 +897,12 @@ pub fn configuration_columns(table: &Table) -> Vec<String> {
         .collect()
 }
 
+/// Rows grouped by key: `(key values, row indices)` per distinct key.
+pub type Groups = Vec<(Vec<Value>, Vec<usize>)>;
+
 /// Groups the rows of `table` by their values in `keys`: one `(key values, row indices)` per
 /// distinct combination, in ascending key order (numbers numerically), rows in table order.
-pub fn group_rows(
-    table: &Table,
-    keys: &[String],
-) -> Result<Vec<(Vec<Value>, Vec<usize>)>, DatasetError> {
+pub fn group_rows(table: &Table, keys: &[String]) -> Result<Groups, DatasetError> {
     let columns: Vec<&Column> = keys
         .iter()
         .map(|k| table.column(k))
@@ -1071,7 +1071,7 @@ mod tests {
 
     #[test]
     fn values_order_numbers_numerically_and_keep_integer_precision() {
-        let mut v = vec![
+        let mut v = [
             Value::UInt(50),
             Value::Float(7.5),
             Value::Str("a".into()),
