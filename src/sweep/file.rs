@@ -1,0 +1,1180 @@
+//! Sweep files: parsing with `file:line` messages, and expansion into configurations.
+//!
+//! A configuration is one point of the grid: a value for every axis. Configurations are numbered
+//! like nested loops in file order (the first axis varies slowest), and run `r` of the sweep is
+//! seed `r % seeds` of configuration `r / seeds`. That global run index, with the master seed,
+//! fixes the run's random stream, so batching, sharding and resuming never change a result.
+
+use std::ops::Range;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use toml::Spanned;
+use toml::de::{DeTable, DeValue};
+
+use super::keys::{self, KEYS, Key, Kind, N_KEYS, Value};
+use crate::env::{self, Spec};
+use crate::error::ConfigError;
+use crate::params::{Params, Profile, default_steps};
+
+/// Top-level keys and sections of a sweep file.
+pub const TOP_LEVEL: &[&str] = &["seeds", "master_seed", "fixed", "grid", "zip", "profiles"];
+/// Keys of a range table.
+const RANGE_KEYS: &[&str] = &["from", "to", "steps", "by", "log"];
+/// More values than this on one axis is surely a mistake (and would not fit in memory).
+const MAX_AXIS_VALUES: u64 = 1_000_000;
+
+/// A sweep file that cannot be read or is not valid.
+#[derive(Debug, thiserror::Error)]
+pub enum SweepError {
+    /// The file could not be read.
+    #[error("cannot read sweep file {file}: {source}")]
+    Read {
+        /// The file.
+        file: String,
+        /// The cause.
+        source: std::io::Error,
+    },
+    /// A problem at a place in the file.
+    #[error("{file}:{line}: {message}")]
+    Invalid {
+        /// The file.
+        file: String,
+        /// 1-based line.
+        line: usize,
+        /// The key concerned ("" for syntax errors).
+        key: String,
+        /// What is wrong and what would be accepted.
+        message: String,
+    },
+}
+
+/// Where a key is set, for messages.
+#[derive(Debug, Clone)]
+struct Source {
+    key: Key,
+    line: usize,
+    section: String,
+}
+
+/// Keys that vary together: one `[grid]` key, or one `[[zip]]` group.
+#[derive(Debug, Clone)]
+pub struct Axis {
+    /// The keys of the axis.
+    pub keys: Vec<Key>,
+    /// `values[i][k]` is the i-th value of `keys[k]`.
+    pub values: Vec<Vec<Value>>,
+    /// `[grid]` or `[[zip]] #n`.
+    pub section: String,
+}
+
+/// A named human (or any bundle of parameters) defined in `[profiles.NAME]`.
+#[derive(Debug, Clone)]
+pub struct UserProfile {
+    /// The name used in `profile = ...`.
+    pub name: String,
+    /// The values it sets; keys given explicitly in a configuration override them.
+    pub values: Vec<(Key, Value)>,
+}
+
+/// One configuration, resolved to the parameters of its runs.
+#[derive(Debug, Clone, Copy)]
+pub struct Resolved {
+    /// Index into [`Sweep::tasks`].
+    pub task: usize,
+    /// Every parameter of the runs.
+    pub params: Params,
+    /// Index into [`Sweep::profile_names`]: the name written in the `profile` column.
+    pub profile: usize,
+}
+
+/// A parsed and validated sweep file.
+#[derive(Debug, Clone)]
+pub struct Sweep {
+    /// The file as named on the command line (for messages).
+    pub file: String,
+    /// The folder `json:` task paths are relative to.
+    pub dir: PathBuf,
+    /// The file's text, stored with the dataset.
+    pub text: String,
+    /// Runs per configuration (default 1).
+    pub seeds: u32,
+    /// Master seed: with the run index it fixes every run's random stream (default 1).
+    pub master_seed: u64,
+    /// `[fixed]`: one value for every configuration.
+    pub fixed: Vec<(Key, Value)>,
+    /// `[grid]` keys and `[[zip]]` groups, in file order.
+    pub axes: Vec<Axis>,
+    /// `[profiles.NAME]` tables.
+    pub profiles: Vec<UserProfile>,
+    /// Distinct task names, in order of appearance (`tidy1` when none is set).
+    pub tasks: Vec<String>,
+    /// Names that may appear in the `profile` column.
+    pub profile_names: Vec<String>,
+    sources: Vec<Source>,
+    configurations: u64,
+}
+
+const PROFILE_NONE: usize = 0;
+const PROFILE_CUSTOM: usize = 1;
+
+/// Reports places in one text.
+struct Src<'a> {
+    file: &'a str,
+    text: &'a str,
+}
+
+impl Src<'_> {
+    fn line(&self, span: &Range<usize>) -> usize {
+        let end = span.start.min(self.text.len());
+        self.text[..end].matches('\n').count() + 1
+    }
+
+    fn err(&self, span: &Range<usize>, key: &str, message: String) -> SweepError {
+        SweepError::Invalid {
+            file: self.file.to_string(),
+            line: self.line(span),
+            key: key.to_string(),
+            message,
+        }
+    }
+}
+
+fn known_keys() -> String {
+    KEYS.iter().map(|k| k.name).collect::<Vec<_>>().join(", ")
+}
+
+fn suggestion(word: &str, candidates: &[&str]) -> String {
+    keys::closest(word, candidates.iter().copied())
+        .map(|c| format!("did you mean '{c}'? "))
+        .unwrap_or_default()
+}
+
+fn type_name(v: &DeValue<'_>) -> &'static str {
+    match v {
+        DeValue::String(_) => "a string",
+        DeValue::Integer(_) => "an integer",
+        DeValue::Float(_) => "a float",
+        DeValue::Boolean(_) => "a boolean",
+        DeValue::Datetime(_) => "a date",
+        DeValue::Array(_) => "a list",
+        DeValue::Table(_) => "a table",
+    }
+}
+
+fn kind_name(kind: Kind) -> String {
+    match kind {
+        Kind::Real => "a number".into(),
+        Kind::Count => "a whole number from 0 to 4294967295".into(),
+        Kind::Switch => "true or false".into(),
+        Kind::Choice(names) => format!("one of {}", names.join(", ")),
+        Kind::Task => "tidy1, tidy2 or \"json:PATH\"".into(),
+        Kind::Profile => format!(
+            "a profile name ({} or one defined in [profiles.NAME])",
+            builtin_profile_names().join(", ")
+        ),
+    }
+}
+
+fn builtin_profile_names() -> Vec<&'static str> {
+    Profile::PRESETS.iter().map(|p| p.name()).collect()
+}
+
+fn as_f64(v: &DeValue<'_>) -> Option<f64> {
+    match v {
+        DeValue::Integer(i) => i128::from_str_radix(&i.as_str().replace('_', ""), i.radix())
+            .ok()
+            .map(|n| n as f64),
+        DeValue::Float(f) => f.as_str().replace('_', "").parse().ok(),
+        _ => None,
+    }
+}
+
+fn as_int(v: &DeValue<'_>) -> Option<i128> {
+    match v {
+        DeValue::Integer(i) => i128::from_str_radix(&i.as_str().replace('_', ""), i.radix()).ok(),
+        DeValue::Float(_) => {
+            let x = as_f64(v)?;
+            (x.is_finite() && x.fract() == 0.0 && x.abs() < 1e30).then_some(x as i128)
+        }
+        _ => None,
+    }
+}
+
+/// Entries of a table in file order.
+fn entries<'t, 'i>(
+    table: &'t DeTable<'i>,
+) -> Vec<(
+    &'t Spanned<std::borrow::Cow<'i, str>>,
+    &'t Spanned<DeValue<'i>>,
+)> {
+    let mut e: Vec<_> = table.iter().collect();
+    e.sort_by_key(|(k, _)| k.span().start);
+    e
+}
+
+/// Parser state while reading one file.
+struct Parser<'a> {
+    src: Src<'a>,
+    sources: Vec<Source>,
+    profile_uses: Vec<(String, Range<usize>, String)>,
+}
+
+impl Parser<'_> {
+    fn key(
+        &self,
+        name: &Spanned<std::borrow::Cow<'_, str>>,
+        section: &str,
+    ) -> Result<Key, SweepError> {
+        Key::lookup(name.get_ref()).ok_or_else(|| {
+            let names: Vec<&str> = KEYS.iter().map(|k| k.name).collect();
+            self.src.err(
+                &name.span(),
+                name.get_ref(),
+                format!(
+                    "unknown key '{}' in {section}; {}known keys: {}",
+                    name.get_ref(),
+                    suggestion(name.get_ref(), &names),
+                    known_keys()
+                ),
+            )
+        })
+    }
+
+    /// Records that `key` is set in `section`; a key may be set once across [fixed], [grid] and
+    /// [[zip]].
+    fn claim(&mut self, key: Key, span: &Range<usize>, section: &str) -> Result<(), SweepError> {
+        let line = self.src.line(span);
+        if let Some(prev) = self
+            .sources
+            .iter()
+            .find(|s| s.key == key && !s.section.starts_with("[profiles."))
+        {
+            return Err(self.src.err(
+                span,
+                key.name(),
+                format!(
+                    "key '{}' in {section} is already set in {} (line {}): a key may appear once \
+                     across [fixed], [grid] and [[zip]]",
+                    key.name(),
+                    prev.section,
+                    prev.line
+                ),
+            ));
+        }
+        self.sources.push(Source {
+            key,
+            line,
+            section: section.to_string(),
+        });
+        Ok(())
+    }
+
+    /// One value of `key`, checked against the parameter's accepted range.
+    fn scalar(
+        &mut self,
+        key: Key,
+        v: &Spanned<DeValue<'_>>,
+        section: &str,
+    ) -> Result<Value, SweepError> {
+        let span = v.span();
+        let kind = key.info().kind;
+        let bad = |p: &Self, what: String| {
+            p.src.err(
+                &span,
+                key.name(),
+                format!("key '{}' in {section}: {what}", key.name()),
+            )
+        };
+        let expected = |p: &Self| {
+            let lists = if matches!(kind, Kind::Real | Kind::Count) {
+                ", a list or a range { from, to, steps }"
+            } else {
+                " or a list"
+            };
+            bad(
+                p,
+                format!(
+                    "expected {}{lists}, found {}",
+                    kind_name(kind),
+                    type_name(v.get_ref())
+                ),
+            )
+        };
+        let value = match (kind, v.get_ref()) {
+            (Kind::Real, DeValue::Integer(_) | DeValue::Float(_)) => {
+                let x = as_f64(v.get_ref()).ok_or_else(|| expected(self))?;
+                if !x.is_finite() {
+                    return Err(bad(self, format!("{x} is not a finite number")));
+                }
+                Value::Real(x)
+            }
+            (Kind::Count, DeValue::Integer(_) | DeValue::Float(_)) => {
+                let n = as_int(v.get_ref())
+                    .ok_or_else(|| bad(self, format!("expected {}", kind_name(kind))))?;
+                let n = u32::try_from(n).map_err(|_| {
+                    bad(
+                        self,
+                        format!("{n} is out of range: expected {}", kind_name(kind)),
+                    )
+                })?;
+                Value::Count(n)
+            }
+            (Kind::Switch, DeValue::Boolean(b)) => Value::Switch(*b),
+            (Kind::Switch, DeValue::String(s)) => match keys::normalise(s).as_str() {
+                "on" | "true" => Value::Switch(true),
+                "off" | "false" => Value::Switch(false),
+                _ => {
+                    return Err(bad(
+                        self,
+                        format!("unknown value '{s}'; accepted values: true, false"),
+                    ));
+                }
+            },
+            (Kind::Choice(names), DeValue::String(s)) => {
+                let norm = keys::normalise(s);
+                match names.iter().find(|n| **n == norm) {
+                    Some(n) => Value::Choice(n),
+                    None => {
+                        return Err(bad(
+                            self,
+                            format!(
+                                "unknown value '{s}'; {}accepted values: {}",
+                                suggestion(s, names),
+                                names.join(", ")
+                            ),
+                        ));
+                    }
+                }
+            }
+            (Kind::Task, DeValue::String(s)) => {
+                let s = s.trim();
+                if s == "tidy1"
+                    || s == "tidy2"
+                    || s.strip_prefix("json:").is_some_and(|p| !p.is_empty())
+                {
+                    Value::Text(s.to_string())
+                } else {
+                    return Err(bad(
+                        self,
+                        format!(
+                            "unknown task '{s}'; {}accepted values: tidy1, tidy2, json:PATH (the \
+                             authors' transition-model file, PATH relative to the sweep file)",
+                            suggestion(s, &["tidy1", "tidy2"])
+                        ),
+                    ));
+                }
+            }
+            (Kind::Profile, DeValue::String(s)) => {
+                let name = s.trim().to_ascii_lowercase().replace('_', "-");
+                self.profile_uses
+                    .push((name.clone(), span.clone(), section.to_string()));
+                Value::Text(name)
+            }
+            _ => return Err(expected(self)),
+        };
+        // Each parameter's accepted range, checked once per value so the message points at it.
+        let mut probe = Params::default();
+        keys::apply(key, &value, &mut probe);
+        if let Err(e) = probe.validate() {
+            return Err(bad(self, e.to_string()));
+        }
+        Ok(value)
+    }
+
+    /// The values of `key` on an axis: a scalar, a list or a range.
+    fn values(
+        &mut self,
+        key: Key,
+        v: &Spanned<DeValue<'_>>,
+        section: &str,
+    ) -> Result<Vec<Value>, SweepError> {
+        let values = match v.get_ref() {
+            DeValue::Array(items) => {
+                if items.is_empty() {
+                    return Err(self.src.err(
+                        &v.span(),
+                        key.name(),
+                        format!(
+                            "key '{}' in {section}: an empty list gives no configuration",
+                            key.name()
+                        ),
+                    ));
+                }
+                items
+                    .iter()
+                    .map(|item| self.scalar(key, item, section))
+                    .collect::<Result<Vec<_>, _>>()?
+            }
+            DeValue::Table(table) => self.range(key, v.span(), table, section)?,
+            _ => vec![self.scalar(key, v, section)?],
+        };
+        if values.len() as u64 > MAX_AXIS_VALUES {
+            return Err(self.src.err(
+                &v.span(),
+                key.name(),
+                format!(
+                    "key '{}' in {section}: {} values is too many (at most {MAX_AXIS_VALUES})",
+                    key.name(),
+                    values.len()
+                ),
+            ));
+        }
+        Ok(values)
+    }
+
+    /// `{ from, to, steps }`, `{ from, to, steps, log = true }` or `{ from, to, by }`.
+    fn range(
+        &mut self,
+        key: Key,
+        span: Range<usize>,
+        table: &DeTable<'_>,
+        section: &str,
+    ) -> Result<Vec<Value>, SweepError> {
+        let name = key.name();
+        let kind = key.info().kind;
+        let err = |p: &Self, sp: &Range<usize>, what: String| {
+            p.src
+                .err(sp, name, format!("key '{name}' in {section}: {what}"))
+        };
+        if !matches!(kind, Kind::Real | Kind::Count) {
+            return Err(err(
+                self,
+                &span,
+                format!(
+                    "ranges are for numeric keys; expected {} or a list of them",
+                    kind_name(kind)
+                ),
+            ));
+        }
+        let mut from = None;
+        let mut to = None;
+        let mut steps = None;
+        let mut by = None;
+        let mut log = false;
+        for (k, v) in entries(table) {
+            let field = keys::normalise(k.get_ref());
+            let number = || {
+                as_f64(v.get_ref())
+                    .filter(|x| x.is_finite())
+                    .ok_or_else(|| {
+                        err(
+                            self,
+                            &v.span(),
+                            format!(
+                                "range field '{field}' must be a finite number, found {}",
+                                type_name(v.get_ref())
+                            ),
+                        )
+                    })
+            };
+            match field.as_str() {
+                "from" => from = Some(number()?),
+                "to" => to = Some(number()?),
+                "by" => by = Some((number()?, v.span())),
+                "steps" => {
+                    let n = as_int(v.get_ref())
+                        .filter(|n| *n >= 1 && (*n as u64) <= MAX_AXIS_VALUES)
+                        .ok_or_else(|| err(self, &v.span(), format!("range field 'steps' is the number of values: a whole number from 1 to {MAX_AXIS_VALUES}")))?;
+                    steps = Some(n as u64);
+                }
+                "log" => {
+                    log = match v.get_ref() {
+                        DeValue::Boolean(b) => *b,
+                        other => {
+                            return Err(err(
+                                self,
+                                &v.span(),
+                                format!(
+                                    "range field 'log' must be true or false, found {}",
+                                    type_name(other)
+                                ),
+                            ));
+                        }
+                    }
+                }
+                _ => {
+                    return Err(err(
+                        self,
+                        &k.span(),
+                        format!(
+                            "unknown range field '{}'; {}accepted fields: {} (e.g. {{ from = 0, to = 20, steps = 41 }})",
+                            k.get_ref(),
+                            suggestion(k.get_ref(), RANGE_KEYS),
+                            RANGE_KEYS.join(", ")
+                        ),
+                    ));
+                }
+            }
+        }
+        let (Some(from), Some(to)) = (from, to) else {
+            return Err(err(
+                self,
+                &span,
+                "a range needs 'from' and 'to', e.g. { from = 0, to = 20, steps = 41 }".into(),
+            ));
+        };
+        let reals: Vec<f64> = match (steps, by) {
+            (Some(_), Some((_, sp))) => {
+                return Err(err(
+                    self,
+                    &sp,
+                    "give either 'steps' (number of values) or 'by' (increment), not both".into(),
+                ));
+            }
+            (None, None) => {
+                return Err(err(
+                    self,
+                    &span,
+                    "a range needs 'steps' (number of values, ends included) or 'by' (increment)"
+                        .into(),
+                ));
+            }
+            (None, Some((by, sp))) => {
+                if log {
+                    return Err(err(
+                        self,
+                        &sp,
+                        "'by' is for linear ranges; a log range takes 'steps'".into(),
+                    ));
+                }
+                if by == 0.0 || (to - from) * by < 0.0 {
+                    return Err(err(
+                        self,
+                        &sp,
+                        format!("'by = {by}' never goes from {from} to {to}"),
+                    ));
+                }
+                let n = ((to - from) / by + 1e-9).floor() as u64 + 1;
+                if n > MAX_AXIS_VALUES {
+                    return Err(err(
+                        self,
+                        &sp,
+                        format!("this range has {n} values (at most {MAX_AXIS_VALUES})"),
+                    ));
+                }
+                (0..n).map(|i| from + by * i as f64).collect()
+            }
+            (Some(n), None) => {
+                if n == 1 {
+                    if from != to {
+                        return Err(err(
+                            self,
+                            &span,
+                            format!(
+                                "'steps = 1' gives a single value, but from = {from} and to = {to} differ"
+                            ),
+                        ));
+                    }
+                    vec![from]
+                } else if log {
+                    if from <= 0.0 || to <= 0.0 {
+                        return Err(err(
+                            self,
+                            &span,
+                            format!(
+                                "a log range needs from > 0 and to > 0 (got from = {from}, to = {to})"
+                            ),
+                        ));
+                    }
+                    let (a, b) = (from.ln(), to.ln());
+                    (0..n)
+                        .map(|i| match i {
+                            0 => from,
+                            i if i == n - 1 => to,
+                            i => (a + (b - a) * i as f64 / (n - 1) as f64).exp(),
+                        })
+                        .collect()
+                } else {
+                    // Ends exact; (to - from) * i / (n - 1) is the closest double to each point.
+                    (0..n)
+                        .map(|i| {
+                            if i == n - 1 {
+                                to
+                            } else {
+                                from + (to - from) * i as f64 / (n - 1) as f64
+                            }
+                        })
+                        .collect()
+                }
+            }
+        };
+        let mut values = Vec::with_capacity(reals.len());
+        for x in reals {
+            let value = if kind == Kind::Count {
+                let rounded = x.round();
+                if !log && (x - rounded).abs() > 1e-9 * x.abs().max(1.0) {
+                    return Err(err(
+                        self,
+                        &span,
+                        format!(
+                            "'{name}' takes whole numbers, but this range gives {x}; choose steps so that (to - from) / (steps - 1) is whole"
+                        ),
+                    ));
+                }
+                if !(0.0..=f64::from(u32::MAX)).contains(&rounded) {
+                    return Err(err(
+                        self,
+                        &span,
+                        format!("{rounded} is out of range: expected {}", kind_name(kind)),
+                    ));
+                }
+                let v = Value::Count(rounded as u32);
+                if values.last() == Some(&v) {
+                    return Err(err(
+                        self,
+                        &span,
+                        format!(
+                            "this log range repeats the whole number {rounded}: use fewer steps or a list"
+                        ),
+                    ));
+                }
+                v
+            } else {
+                Value::Real(x)
+            };
+            let mut probe = Params::default();
+            keys::apply(key, &value, &mut probe);
+            if let Err(e) = probe.validate() {
+                return Err(err(self, &span, format!("the range reaches {value}: {e}")));
+            }
+            values.push(value);
+        }
+        Ok(values)
+    }
+}
+
+impl Sweep {
+    /// Reads and parses the sweep file at `path`.
+    pub fn load(path: &Path) -> Result<Sweep, SweepError> {
+        let file = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|source| SweepError::Read {
+            file: file.clone(),
+            source,
+        })?;
+        let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+        Sweep::parse(&file, &dir, &text)
+    }
+
+    /// Parses sweep text; `file` names it in messages, `dir` is where `json:` paths start.
+    pub fn parse(file: &str, dir: &Path, text: &str) -> Result<Sweep, SweepError> {
+        let src = Src { file, text };
+        let root = DeTable::parse(text).map_err(|e| {
+            let span = e.span().unwrap_or(0..0);
+            src.err(&span, "", format!("not valid TOML: {}", e.message()))
+        })?;
+        let mut p = Parser {
+            src,
+            sources: Vec::new(),
+            profile_uses: Vec::new(),
+        };
+        let mut seeds = 1u32;
+        let mut master_seed = 1u64;
+        let mut fixed = Vec::new();
+        let mut axes: Vec<(usize, Axis)> = Vec::new();
+        let mut profiles: Vec<UserProfile> = Vec::new();
+        for (k, v) in entries(root.get_ref()) {
+            let name = keys::normalise(k.get_ref());
+            let table = |p: &Parser<'_>| match v.get_ref() {
+                DeValue::Table(t) => Ok(t),
+                other => Err(p.src.err(
+                    &k.span(),
+                    &name,
+                    format!(
+                        "'{name}' must be a table ([{name}]), found {}",
+                        type_name(other)
+                    ),
+                )),
+            };
+            match name.as_str() {
+                "seeds" => {
+                    seeds = as_int(v.get_ref())
+                        .and_then(|n| u32::try_from(n).ok())
+                        .filter(|n| *n >= 1)
+                        .ok_or_else(|| p.src.err(&v.span(), "seeds", "key 'seeds': the number of runs per configuration, a whole number >= 1".into()))?;
+                }
+                "master_seed" => {
+                    master_seed = as_int(v.get_ref())
+                        .and_then(|n| u64::try_from(n).ok())
+                        .ok_or_else(|| {
+                            p.src.err(
+                                &v.span(),
+                                "master_seed",
+                                "key 'master_seed': a whole number from 0 to 2^63 - 1".into(),
+                            )
+                        })?;
+                }
+                "fixed" => {
+                    for (key_name, value) in entries(table(&p)?) {
+                        let key = p.key(key_name, "[fixed]")?;
+                        if matches!(value.get_ref(), DeValue::Array(_) | DeValue::Table(_)) {
+                            return Err(p.src.err(
+                                &value.span(),
+                                key.name(),
+                                format!("key '{}' in [fixed] takes one value; put lists and ranges in [grid]", key.name()),
+                            ));
+                        }
+                        p.claim(key, &key_name.span(), "[fixed]")?;
+                        fixed.push((key, p.scalar(key, value, "[fixed]")?));
+                    }
+                }
+                "grid" => {
+                    for (key_name, value) in entries(table(&p)?) {
+                        let key = p.key(key_name, "[grid]")?;
+                        p.claim(key, &key_name.span(), "[grid]")?;
+                        let values = p.values(key, value, "[grid]")?;
+                        axes.push((
+                            key_name.span().start,
+                            Axis {
+                                keys: vec![key],
+                                values: values.into_iter().map(|v| vec![v]).collect(),
+                                section: "[grid]".into(),
+                            },
+                        ));
+                    }
+                }
+                "zip" => {
+                    let groups: Vec<&Spanned<DeValue<'_>>> = match v.get_ref() {
+                        DeValue::Array(items) => items.iter().collect(),
+                        DeValue::Table(_) => vec![v],
+                        other => {
+                            return Err(p.src.err(
+                                &k.span(),
+                                "zip",
+                                format!(
+                                    "'zip' must be one or more [[zip]] tables, found {}",
+                                    type_name(other)
+                                ),
+                            ));
+                        }
+                    };
+                    for (g, group) in groups.into_iter().enumerate() {
+                        let section = format!("[[zip]] #{}", g + 1);
+                        let DeValue::Table(t) = group.get_ref() else {
+                            return Err(p.src.err(
+                                &group.span(),
+                                "zip",
+                                format!("{section} must be a table of lists"),
+                            ));
+                        };
+                        let mut zkeys = Vec::new();
+                        let mut columns: Vec<(Vec<Value>, Range<usize>)> = Vec::new();
+                        for (key_name, value) in entries(t) {
+                            let key = p.key(key_name, &section)?;
+                            p.claim(key, &key_name.span(), &section)?;
+                            let values = p.values(key, value, &section)?;
+                            zkeys.push(key);
+                            columns.push((values, key_name.span()));
+                        }
+                        let Some((first, first_span)) = columns.first() else {
+                            return Err(p.src.err(
+                                &group.span(),
+                                "zip",
+                                format!(
+                                    "{section} is empty: give two or more lists of equal length"
+                                ),
+                            ));
+                        };
+                        let n = first.len();
+                        if let Some((_, span)) = columns.iter().find(|(c, _)| c.len() != n) {
+                            let lengths = zkeys
+                                .iter()
+                                .zip(&columns)
+                                .map(|(k, (c, _))| format!("{} has {}", k.name(), c.len()))
+                                .collect::<Vec<_>>()
+                                .join(", ");
+                            return Err(p.src.err(
+                                span,
+                                "zip",
+                                format!("the lists of {section} vary together and must have the same length: {lengths}"),
+                            ));
+                        }
+                        let values = (0..n)
+                            .map(|i| columns.iter().map(|(c, _)| c[i].clone()).collect())
+                            .collect();
+                        axes.push((
+                            first_span.start,
+                            Axis {
+                                keys: zkeys,
+                                values,
+                                section,
+                            },
+                        ));
+                    }
+                }
+                "profiles" => {
+                    for (pname, body) in entries(table(&p)?) {
+                        let name = pname
+                            .get_ref()
+                            .trim()
+                            .to_ascii_lowercase()
+                            .replace('_', "-");
+                        let section = format!("[profiles.{name}]");
+                        let valid = !name.is_empty()
+                            && name.chars().all(|c| c.is_ascii_alphanumeric() || c == '-');
+                        if !valid
+                            || name == "custom"
+                            || builtin_profile_names().contains(&name.as_str())
+                        {
+                            return Err(p.src.err(
+                                &pname.span(),
+                                "profiles",
+                                format!(
+                                    "profile name '{}' is not allowed: use letters, digits and '-', and none of the built-in names ({}, custom)",
+                                    pname.get_ref(),
+                                    builtin_profile_names().join(", ")
+                                ),
+                            ));
+                        }
+                        let DeValue::Table(t) = body.get_ref() else {
+                            return Err(p.src.err(
+                                &pname.span(),
+                                "profiles",
+                                format!("{section} must be a table of parameter values"),
+                            ));
+                        };
+                        let mut values = Vec::new();
+                        for (key_name, value) in entries(t) {
+                            let key = p.key(key_name, &section)?;
+                            if key == Key::Profile {
+                                return Err(p.src.err(
+                                    &key_name.span(),
+                                    "profile",
+                                    format!("{section} cannot set 'profile' itself"),
+                                ));
+                            }
+                            if matches!(value.get_ref(), DeValue::Array(_) | DeValue::Table(_)) {
+                                return Err(p.src.err(
+                                    &value.span(),
+                                    key.name(),
+                                    format!("key '{}' in {section} takes one value", key.name()),
+                                ));
+                            }
+                            if values.iter().any(|(k, _)| *k == key) {
+                                return Err(p.src.err(
+                                    &key_name.span(),
+                                    key.name(),
+                                    format!("key '{}' appears twice in {section}", key.name()),
+                                ));
+                            }
+                            values.push((key, p.scalar(key, value, &section)?));
+                            p.sources.push(Source {
+                                key,
+                                line: p.src.line(&key_name.span()),
+                                section: section.clone(),
+                            });
+                        }
+                        profiles.push(UserProfile { name, values });
+                    }
+                }
+                _ => {
+                    let message = if let Some(key) = Key::lookup(&name) {
+                        format!(
+                            "parameter '{}' must be inside [fixed] (one value) or [grid] (several values)",
+                            key.name()
+                        )
+                    } else {
+                        format!(
+                            "unknown top-level key '{}'; {}known top-level keys and sections: {}",
+                            k.get_ref(),
+                            suggestion(&name, TOP_LEVEL),
+                            TOP_LEVEL.join(", ")
+                        )
+                    };
+                    return Err(p.src.err(&k.span(), k.get_ref(), message));
+                }
+            }
+        }
+        // Profiles may be defined after they are used, so names are checked at the end.
+        for (name, span, section) in &p.profile_uses {
+            let defined = profiles.iter().any(|u| &u.name == name);
+            if !defined && !builtin_profile_names().contains(&name.as_str()) {
+                let mut names = builtin_profile_names();
+                names.extend(profiles.iter().map(|u| u.name.as_str()));
+                return Err(p.src.err(
+                    span,
+                    "profile",
+                    format!(
+                        "key 'profile' in {section}: unknown profile '{name}'; {}known profiles: {} (define others in [profiles.NAME])",
+                        suggestion(name, &names),
+                        names.join(", ")
+                    ),
+                ));
+            }
+        }
+        axes.sort_by_key(|(start, _)| *start);
+        let axes: Vec<Axis> = axes.into_iter().map(|(_, a)| a).collect();
+        let mut configurations: u64 = 1;
+        for axis in &axes {
+            configurations = configurations
+                .checked_mul(axis.values.len() as u64)
+                .ok_or_else(|| {
+                    p.src.err(
+                        &(0..0),
+                        "grid",
+                        "the grid has more than 2^64 configurations".into(),
+                    )
+                })?;
+        }
+        if configurations.checked_mul(u64::from(seeds)).is_none() {
+            return Err(p.src.err(
+                &(0..0),
+                "seeds",
+                "configurations x seeds exceeds 2^64 runs".into(),
+            ));
+        }
+        let mut tasks: Vec<String> = Vec::new();
+        let mut task_set = false;
+        let all_values = fixed
+            .iter()
+            .map(|(k, v)| (*k, v))
+            .chain(axes.iter().flat_map(|a| {
+                a.values
+                    .iter()
+                    .flat_map(move |row| a.keys.iter().copied().zip(row.iter()))
+            }))
+            .chain(
+                profiles
+                    .iter()
+                    .flat_map(|u| u.values.iter().map(|(k, v)| (*k, v))),
+            );
+        for (key, value) in all_values {
+            if key == Key::Task {
+                task_set = true;
+                let name = value.to_string();
+                if !tasks.contains(&name) {
+                    tasks.push(name);
+                }
+            }
+        }
+        // A task left unset anywhere (or set only by some profiles) falls back to tidy1.
+        let fixed_or_axis_task = fixed.iter().any(|(k, _)| *k == Key::Task)
+            || axes.iter().any(|a| a.keys.contains(&Key::Task));
+        if !task_set || !fixed_or_axis_task {
+            let default = "tidy1".to_string();
+            if !tasks.contains(&default) {
+                tasks.push(default);
+            }
+        }
+        let mut profile_names = vec!["none".to_string(), "custom".to_string()];
+        profile_names.extend(
+            builtin_profile_names()
+                .iter()
+                .filter(|n| **n != "none")
+                .map(|n| n.to_string()),
+        );
+        profile_names.extend(profiles.iter().map(|u| u.name.clone()));
+        Ok(Sweep {
+            file: file.to_string(),
+            dir: dir.to_path_buf(),
+            text: text.to_string(),
+            seeds,
+            master_seed,
+            fixed,
+            axes,
+            profiles,
+            tasks,
+            profile_names,
+            sources: p.sources,
+            configurations,
+        })
+    }
+
+    /// Number of configurations (points of the grid).
+    pub fn configurations(&self) -> u64 {
+        self.configurations
+    }
+
+    /// Number of runs: configurations x seeds.
+    pub fn runs(&self) -> u64 {
+        self.configurations * u64::from(self.seeds)
+    }
+
+    /// The configuration and seed index of global run `run`.
+    pub fn split_run(&self, run: u64) -> (u64, u32) {
+        let seeds = u64::from(self.seeds);
+        (run / seeds, (run % seeds) as u32)
+    }
+
+    /// The value of every key set explicitly in configuration `config` ([fixed], axes).
+    fn explicit(&self, config: u64) -> [Option<&Value>; N_KEYS] {
+        let mut set: [Option<&Value>; N_KEYS] = [None; N_KEYS];
+        for (k, v) in &self.fixed {
+            set[*k as usize] = Some(v);
+        }
+        let mut rem = config;
+        for axis in self.axes.iter().rev() {
+            let n = axis.values.len() as u64;
+            let digit = (rem % n) as usize;
+            rem /= n;
+            for (k, v) in axis.keys.iter().zip(&axis.values[digit]) {
+                set[*k as usize] = Some(v);
+            }
+        }
+        set
+    }
+
+    /// The parameters of configuration `config` (must be below [`Sweep::configurations`]).
+    ///
+    /// Order: SPEC defaults (steps by task), then the profile (a built-in one is resolved for the
+    /// configuration's controller, as `mbmf run --profile` does), then every key given explicitly,
+    /// which overrides the profile's fields.
+    pub fn resolve(&self, config: u64) -> Resolved {
+        let set = self.explicit(config);
+        let mut eff = set;
+        let mut builtin = None;
+        let mut profile = PROFILE_NONE;
+        if let Some(Value::Text(name)) = set[Key::Profile as usize] {
+            profile = self
+                .profile_names
+                .iter()
+                .position(|n| n == name)
+                .unwrap_or(PROFILE_CUSTOM);
+            if let Some(user) = self.profiles.iter().find(|u| &u.name == name) {
+                for (k, v) in &user.values {
+                    if set[*k as usize].is_none() {
+                        eff[*k as usize] = Some(v);
+                    }
+                }
+            } else {
+                builtin = Profile::PRESETS.iter().copied().find(|p| p.name() == name);
+            }
+        }
+        let task_name = match eff[Key::Task as usize] {
+            Some(v) => v.to_string(),
+            None => "tidy1".to_string(),
+        };
+        let task = self.tasks.iter().position(|t| *t == task_name).unwrap_or(0);
+        let mut params = Params {
+            steps: default_steps(&task_name),
+            ..Params::default()
+        };
+        for info in KEYS.iter().filter(|i| !i.key.is_human()) {
+            if let Some(v) = eff[info.key as usize] {
+                keys::apply(info.key, v, &mut params);
+            }
+        }
+        params.human = builtin
+            .and_then(|p| p.human(params.controller))
+            .unwrap_or_default();
+        let mut human_set = false;
+        for info in KEYS.iter().filter(|i| i.key.is_human()) {
+            if let Some(v) = eff[info.key as usize] {
+                keys::apply(info.key, v, &mut params);
+                human_set = true;
+            }
+        }
+        params.profile = match builtin {
+            Some(p) => p,
+            None if profile != PROFILE_NONE || human_set => Profile::Custom,
+            None => Profile::None,
+        };
+        if profile == PROFILE_NONE && builtin.is_none() && human_set {
+            profile = PROFILE_CUSTOM;
+        }
+        Resolved {
+            task,
+            params,
+            profile,
+        }
+    }
+
+    /// The axis values of configuration `config`, e.g. `kappa_coeff = 0.5, interaction = takeover`.
+    pub fn describe(&self, config: u64) -> String {
+        let mut parts = Vec::new();
+        let mut rem = config;
+        let mut digits = vec![0; self.axes.len()];
+        for (i, axis) in self.axes.iter().enumerate().rev() {
+            let n = axis.values.len() as u64;
+            digits[i] = (rem % n) as usize;
+            rem /= n;
+        }
+        for (axis, d) in self.axes.iter().zip(digits) {
+            for (k, v) in axis.keys.iter().zip(&axis.values[d]) {
+                parts.push(format!("{} = {v}", k.name()));
+            }
+        }
+        if parts.is_empty() {
+            "the only configuration".into()
+        } else {
+            parts.join(", ")
+        }
+    }
+
+    fn source(&self, key: Key) -> Option<&Source> {
+        self.sources.iter().find(|s| s.key == key)
+    }
+
+    fn err_at_key(&self, key: Key, message: String) -> SweepError {
+        // A built-in profile sets human keys without naming them: point at the profile then.
+        let (line, section) = self
+            .source(key)
+            .or_else(|| self.source(Key::Profile).filter(|_| key.is_human()))
+            .map(|s| (s.line, s.section.clone()))
+            .unwrap_or((1, "defaults".into()));
+        SweepError::Invalid {
+            file: self.file.clone(),
+            line,
+            key: key.name().to_string(),
+            message: format!("key '{}' in {section}: {message}", key.name()),
+        }
+    }
+
+    /// Builds the environment of every task, with `json:` paths relative to the sweep file.
+    pub fn load_specs(&self) -> Result<Vec<Arc<Spec>>, SweepError> {
+        self.tasks
+            .iter()
+            .map(|task| {
+                let spec = match task.strip_prefix("json:") {
+                    Some(path) => {
+                        let path = Path::new(path);
+                        let path = if path.is_relative() {
+                            self.dir.join(path)
+                        } else {
+                            path.to_path_buf()
+                        };
+                        env::json::load(&env::JsonPaths::beside(path), task)
+                            .map_err(|e| e.to_string())
+                    }
+                    None => env::load(task).map_err(|e| e.to_string()),
+                };
+                spec.map(Arc::new).map_err(|e| {
+                    self.err_at_key(Key::Task, format!("cannot load task '{task}': {e}"))
+                })
+            })
+            .collect()
+    }
+
+    /// Checks every configuration against its environment (e.g. interactions are refused on a
+    /// `json:` task, SPEC 5), naming the first bad combination.
+    pub fn check(&self, specs: &[Arc<Spec>]) -> Result<(), SweepError> {
+        for config in 0..self.configurations {
+            let r = self.resolve(config);
+            if let Err(e) = crate::batch::validate_for_spec(&specs[r.task], &r.params) {
+                // Not an exhaustive match, so a new error kind elsewhere does not break this.
+                let key = if let ConfigError::InvalidParam { name, .. } = &e {
+                    Key::from_flag(name).unwrap_or(Key::Task)
+                } else if let ConfigError::ValueOverflow { because, .. } = &e {
+                    // Names the inputs that combine badly: point at the first one the file sets.
+                    KEYS.iter()
+                        .map(|k| k.key)
+                        .find(|k| because.contains(k.name()) && self.source(*k).is_some())
+                        .unwrap_or(Key::Task)
+                } else if let ConfigError::InteractionUnsupported { .. } = &e {
+                    Key::Interaction
+                } else {
+                    Key::Task
+                };
+                return Err(self.err_at_key(
+                    key,
+                    format!(
+                        "configuration {config} ({}, task = {}): {e}",
+                        self.describe(config),
+                        self.tasks[r.task]
+                    ),
+                ));
+            }
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,472 @@
+//! The parameters a sweep file may set: one key per `mbmf run` flag (snake or kebab case), each
+//! with its kind of value, and how a value is applied to a run's [`Params`].
+
+use std::fmt;
+
+use crate::params::{Controller, CostModel, Interaction, Params, Selection};
+
+/// A parameter a sweep file may set.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Key {
+    /// `task`: tidy1, tidy2 or json:PATH.
+    Task,
+    /// `controller`.
+    Controller,
+    /// `selection`.
+    Selection,
+    /// `cost_model`.
+    CostModel,
+    /// `alpha_mf`.
+    AlphaMf,
+    /// `gamma_mf`.
+    GammaMf,
+    /// `gamma_mb`.
+    GammaMb,
+    /// `tau`.
+    Tau,
+    /// `q_init`.
+    QInit,
+    /// `window_n`.
+    WindowN,
+    /// `vi_epsilon`.
+    ViEpsilon,
+    /// `vi_max_sweeps`.
+    ViMaxSweeps,
+    /// `filter_alpha`.
+    FilterAlpha,
+    /// `kappa_coeff`.
+    KappaCoeff,
+    /// `normalise_entropy`.
+    NormaliseEntropy,
+    /// `profile`: a built-in human or one defined in `[profiles.NAME]`.
+    Profile,
+    /// `interaction`.
+    Interaction,
+    /// `budget`.
+    Budget,
+    /// `zeta`.
+    Zeta,
+    /// `forget`.
+    Forget,
+    /// `steps`.
+    Steps,
+    /// `babbling`.
+    Babbling,
+    /// `checkpoint`.
+    Checkpoint,
+}
+
+/// Number of keys (the length of [`KEYS`]).
+pub const N_KEYS: usize = 23;
+
+/// What values a key takes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Kind {
+    /// A finite number; lists and ranges accepted.
+    Real,
+    /// A whole number from 0 to 4,294,967,295; lists and ranges accepted.
+    Count,
+    /// `true`/`false` (or "on"/"off").
+    Switch,
+    /// One of a fixed set of names.
+    Choice(&'static [&'static str]),
+    /// tidy1, tidy2 or json:PATH.
+    Task,
+    /// A built-in profile name or one defined in the file.
+    Profile,
+}
+
+/// A key's name, aliases, kind and help line.
+#[derive(Debug, Clone, Copy)]
+pub struct KeyInfo {
+    /// The key.
+    pub key: Key,
+    /// Its name in snake case (kebab case is accepted too).
+    pub name: &'static str,
+    /// Other accepted names.
+    pub aliases: &'static [&'static str],
+    /// Its kind of value.
+    pub kind: Kind,
+    /// One line for `--help`-style listings.
+    pub doc: &'static str,
+}
+
+/// Names of the controllers, as on the command line.
+pub const CONTROLLERS: &[&str] = &["mf", "mb", "rnd", "ec", "entropy"];
+/// Names of the selection rules.
+pub const SELECTIONS: &[&str] = &["softmax", "argmax"];
+/// Names of the cost models.
+pub const COST_MODELS: &[&str] = &["ops", "wallclock"];
+/// Names of the interaction types.
+pub const INTERACTIONS: &[&str] = &["none", "congratulation", "takeover", "punishment"];
+
+/// Every key, in the order listings show them (a [`Key`] indexes this array).
+pub const KEYS: [KeyInfo; N_KEYS] = [
+    info(
+        Key::Task,
+        "task",
+        &[],
+        Kind::Task,
+        "tidy1, tidy2 or json:PATH (PATH relative to the sweep file)",
+    ),
+    info(
+        Key::Controller,
+        "controller",
+        &[],
+        Kind::Choice(CONTROLLERS),
+        "meta-controller",
+    ),
+    info(
+        Key::Selection,
+        "selection",
+        &[],
+        Kind::Choice(SELECTIONS),
+        "MC selection rule (default softmax)",
+    ),
+    info(
+        Key::CostModel,
+        "cost_model",
+        &[],
+        Kind::Choice(COST_MODELS),
+        "inference cost measure (default ops)",
+    ),
+    info(
+        Key::AlphaMf,
+        "alpha_mf",
+        &[],
+        Kind::Real,
+        "MF learning rate (default 0.6)",
+    ),
+    info(
+        Key::GammaMf,
+        "gamma_mf",
+        &[],
+        Kind::Real,
+        "MF discount (default 0.9)",
+    ),
+    info(
+        Key::GammaMb,
+        "gamma_mb",
+        &[],
+        Kind::Real,
+        "MB discount (default 0.95)",
+    ),
+    info(
+        Key::Tau,
+        "tau",
+        &[],
+        Kind::Real,
+        "softmax temperature (default 0.02)",
+    ),
+    info(
+        Key::QInit,
+        "q_init",
+        &[],
+        Kind::Real,
+        "initial action values (default 0)",
+    ),
+    info(
+        Key::WindowN,
+        "window_n",
+        &[],
+        Kind::Count,
+        "MB transition window (default 10)",
+    ),
+    info(
+        Key::ViEpsilon,
+        "vi_epsilon",
+        &[],
+        Kind::Real,
+        "value-iteration tolerance (default 0.01)",
+    ),
+    info(
+        Key::ViMaxSweeps,
+        "vi_max_sweeps",
+        &[],
+        Kind::Count,
+        "value-iteration sweep cap (default 10000)",
+    ),
+    info(
+        Key::FilterAlpha,
+        "filter_alpha",
+        &[],
+        Kind::Real,
+        "moving-average weight (default 0.6)",
+    ),
+    info(
+        Key::KappaCoeff,
+        "kappa_coeff",
+        &["kappa"],
+        Kind::Real,
+        "EC cost weight coefficient (default 9)",
+    ),
+    info(
+        Key::NormaliseEntropy,
+        "normalise_entropy",
+        &["normalize_entropy"],
+        Kind::Switch,
+        "normalise entropies (default true)",
+    ),
+    info(
+        Key::Profile,
+        "profile",
+        &[],
+        Kind::Profile,
+        "named human: built-in or [profiles.NAME]",
+    ),
+    info(
+        Key::Interaction,
+        "interaction",
+        &[],
+        Kind::Choice(INTERACTIONS),
+        "interaction type (default none)",
+    ),
+    info(
+        Key::Budget,
+        "budget",
+        &[],
+        Kind::Count,
+        "interactions per run (default 0)",
+    ),
+    info(
+        Key::Zeta,
+        "zeta",
+        &[],
+        Kind::Real,
+        "congratulation/punishment weight (default 0.1)",
+    ),
+    info(
+        Key::Forget,
+        "forget",
+        &["forget_prob"],
+        Kind::Real,
+        "probability the human is inattentive (default 0.1)",
+    ),
+    info(
+        Key::Steps,
+        "steps",
+        &[],
+        Kind::Count,
+        "experiment steps (default 10000; 20000 for tidy2)",
+    ),
+    info(
+        Key::Babbling,
+        "babbling",
+        &[],
+        Kind::Count,
+        "babbling steps (default 1000)",
+    ),
+    info(
+        Key::Checkpoint,
+        "checkpoint",
+        &[],
+        Kind::Count,
+        "series row every this many steps (default 100)",
+    ),
+];
+
+const fn info(
+    key: Key,
+    name: &'static str,
+    aliases: &'static [&'static str],
+    kind: Kind,
+    doc: &'static str,
+) -> KeyInfo {
+    KeyInfo {
+        key,
+        name,
+        aliases,
+        kind,
+        doc,
+    }
+}
+
+impl Key {
+    /// The key's description.
+    pub fn info(self) -> &'static KeyInfo {
+        &KEYS[self as usize]
+    }
+
+    /// The key's name (snake case).
+    pub fn name(self) -> &'static str {
+        self.info().name
+    }
+
+    /// Looks a key up by name: snake or kebab case, or an alias.
+    pub fn lookup(name: &str) -> Option<Key> {
+        let norm = normalise(name);
+        KEYS.iter()
+            .find(|k| k.name == norm || k.aliases.contains(&norm.as_str()))
+            .map(|k| k.key)
+    }
+
+    /// Whether the key describes the simulated human (applied after a profile).
+    pub fn is_human(self) -> bool {
+        matches!(
+            self,
+            Key::Interaction | Key::Budget | Key::Zeta | Key::Forget
+        )
+    }
+
+    /// The key whose command-line flag is `flag` (as in [`crate::error::ConfigError`]).
+    pub fn from_flag(flag: &str) -> Option<Key> {
+        Key::lookup(flag)
+    }
+}
+
+/// Lower case, `-` turned into `_`.
+pub fn normalise(name: &str) -> String {
+    name.trim().to_ascii_lowercase().replace('-', "_")
+}
+
+/// One value of a parameter.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Value {
+    /// A number.
+    Real(f64),
+    /// A whole number.
+    Count(u32),
+    /// On or off.
+    Switch(bool),
+    /// One of a fixed set of names.
+    Choice(&'static str),
+    /// A task or a profile name.
+    Text(String),
+}
+
+impl fmt::Display for Value {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Value::Real(x) => write!(f, "{x}"),
+            Value::Count(n) => write!(f, "{n}"),
+            Value::Switch(b) => write!(f, "{b}"),
+            Value::Choice(s) => f.write_str(s),
+            Value::Text(s) => f.write_str(s),
+        }
+    }
+}
+
+impl Value {
+    /// The number, for numeric values.
+    pub fn as_f64(&self) -> Option<f64> {
+        match self {
+            Value::Real(x) => Some(*x),
+            Value::Count(n) => Some(f64::from(*n)),
+            _ => None,
+        }
+    }
+}
+
+/// Sets `key` to `value` in `params`. `task` and `profile` are resolved by the caller and ignored
+/// here; so are values of the wrong variant, which parsing never produces.
+pub fn apply(key: Key, value: &Value, params: &mut Params) {
+    let real = value.as_f64().unwrap_or(f64::NAN);
+    let count = match value {
+        Value::Count(n) => *n,
+        _ => 0,
+    };
+    match key {
+        Key::Task | Key::Profile => {}
+        Key::Controller => {
+            if let Value::Choice(name) = value
+                && let Some(c) = Controller::ALL.iter().find(|c| c.name() == *name)
+            {
+                params.controller = *c;
+            }
+        }
+        Key::Selection => {
+            params.selection = if *value == Value::Choice("argmax") {
+                Selection::Argmax
+            } else {
+                Selection::Softmax
+            }
+        }
+        Key::CostModel => {
+            params.cost_model = if *value == Value::Choice("wallclock") {
+                CostModel::Wallclock
+            } else {
+                CostModel::Ops
+            }
+        }
+        Key::AlphaMf => params.alpha_mf = real,
+        Key::GammaMf => params.gamma_mf = real,
+        Key::GammaMb => params.gamma_mb = real,
+        Key::Tau => params.tau = real,
+        Key::QInit => params.q_init = real,
+        Key::WindowN => params.window_n = count,
+        Key::ViEpsilon => params.vi_epsilon = real,
+        Key::ViMaxSweeps => params.vi_max_sweeps = count,
+        Key::FilterAlpha => params.filter_alpha = real,
+        Key::KappaCoeff => params.kappa_coeff = real,
+        Key::NormaliseEntropy => params.normalise_entropy = *value == Value::Switch(true),
+        Key::Interaction => {
+            params.human.interaction = match value {
+                Value::Choice("congratulation") => Interaction::Congratulation,
+                Value::Choice("takeover") => Interaction::Takeover,
+                Value::Choice("punishment") => Interaction::Punishment,
+                _ => Interaction::None,
+            }
+        }
+        Key::Budget => params.human.budget = count,
+        Key::Zeta => params.human.zeta = real,
+        Key::Forget => params.human.forget_prob = real,
+        Key::Steps => params.steps = count,
+        Key::Babbling => params.babbling = count,
+        Key::Checkpoint => params.checkpoint = count,
+    }
+}
+
+/// Levenshtein distance between two short strings.
+pub fn edit_distance(a: &str, b: &str) -> usize {
+    let b: Vec<char> = b.chars().collect();
+    let mut prev: Vec<usize> = (0..=b.len()).collect();
+    for (i, ca) in a.chars().enumerate() {
+        let mut cur = vec![i + 1; b.len() + 1];
+        for (j, cb) in b.iter().enumerate() {
+            let sub = prev[j] + usize::from(ca != *cb);
+            cur[j + 1] = sub.min(prev[j + 1] + 1).min(cur[j] + 1);
+        }
+        prev = cur;
+    }
+    prev[b.len()]
+}
+
+/// The candidate closest to `word`, if it is close enough to be a plausible typo.
+pub fn closest<'a>(word: &str, candidates: impl IntoIterator<Item = &'a str>) -> Option<&'a str> {
+    let word = normalise(word);
+    candidates
+        .into_iter()
+        .map(|c| (edit_distance(&word, &normalise(c)), c))
+        .filter(|(d, c)| *d <= (c.len() / 3).max(2))
+        .min_by_key(|(d, _)| *d)
+        .map(|(_, c)| c)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn keys_are_indexed_by_their_enum_value() {
+        for (i, k) in KEYS.iter().enumerate() {
+            assert_eq!(k.key as usize, i, "{}", k.name);
+        }
+    }
+
+    #[test]
+    fn lookup_accepts_kebab_case_and_aliases() {
+        assert_eq!(Key::lookup("kappa-coeff"), Some(Key::KappaCoeff));
+        assert_eq!(Key::lookup("forget_prob"), Some(Key::Forget));
+        assert_eq!(Key::lookup("Alpha_MF"), Some(Key::AlphaMf));
+        assert_eq!(Key::lookup("nope"), None);
+    }
+
+    #[test]
+    fn closest_suggests_a_typo_fix_and_nothing_for_unrelated_words() {
+        let names = KEYS.iter().map(|k| k.name);
+        assert_eq!(closest("kapa_coeff", names.clone()), Some("kappa_coeff"));
+        assert_eq!(closest("contoller", names.clone()), Some("controller"));
+        assert_eq!(closest("xylophone", names), None);
+        assert_eq!(edit_distance("kitten", "sitting"), 3);
+    }
+}

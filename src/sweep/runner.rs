@@ -1,0 +1,445 @@
+//! Running a sweep (or one shard of it) into its dataset folder: find what is missing, pack the
+//! missing runs into batches of heterogeneous runs of one task, simulate each batch and write it
+//! as one part. Only one batch is in memory at a time.
+
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::time::Instant;
+
+use arrow::array::{ArrayRef, RecordBatch, StringArray, UInt32Array, UInt64Array};
+use arrow::datatypes::{DataType, Field, Schema};
+
+use super::file::Sweep;
+use super::shard::Shard;
+use super::store::{self, Lock, StoreError};
+use crate::batch::{Batch, RunConfig};
+use crate::env::Spec;
+use crate::error::ConfigError;
+use crate::experiment;
+use crate::output::{self, OutputError};
+
+/// How to run a sweep.
+#[derive(Debug, Clone)]
+pub struct Options {
+    /// The dataset folder.
+    pub out: PathBuf,
+    /// Run what is missing from `out` instead of refusing a folder that holds results.
+    pub resume: bool,
+    /// The slice of configurations this process runs.
+    pub shard: Shard,
+    /// Runs per batch, and so per part file (bounds memory; results do not depend on it).
+    pub batch_size: usize,
+    /// No progress bar.
+    pub quiet: bool,
+}
+
+/// A sweep that could not be run.
+#[derive(Debug, thiserror::Error)]
+pub enum RunError {
+    /// The dataset folder refused.
+    #[error(transparent)]
+    Store(#[from] StoreError),
+    /// Encoding results failed.
+    #[error(transparent)]
+    Output(#[from] OutputError),
+    /// A configuration the engine refused (validation should have caught it).
+    #[error(transparent)]
+    Config(#[from] ConfigError),
+}
+
+/// What one process did.
+#[derive(Debug, Clone)]
+pub struct Report {
+    /// The dataset folder.
+    pub out: PathBuf,
+    /// The shard run.
+    pub shard: Shard,
+    /// Runs of the sweep.
+    pub total: u64,
+    /// Runs of this shard.
+    pub shard_runs: u64,
+    /// Runs of this shard already in the folder at the start.
+    pub shard_done_before: u64,
+    /// Runs of the whole sweep in the folder at the start.
+    pub done_before: u64,
+    /// Runs simulated and written by this process.
+    pub ran: u64,
+    /// Parts written by this process.
+    pub parts_written: usize,
+    /// Wall-clock seconds.
+    pub seconds: f64,
+}
+
+impl Report {
+    /// The one-line summary printed at the end.
+    pub fn line(&self) -> String {
+        let rate = if self.seconds > 0.0 {
+            self.ran as f64 / self.seconds
+        } else {
+            0.0
+        };
+        let dataset = self.done_before + self.ran;
+        let whose = if self.shard == Shard::ALL {
+            String::new()
+        } else {
+            format!(" (shard {})", self.shard)
+        };
+        let status = if dataset == self.total {
+            format!("dataset complete: {} runs", self.total)
+        } else {
+            format!(
+                "dataset holds {dataset} of {} runs (other shards add the rest)",
+                self.total
+            )
+        };
+        format!(
+            "wrote {}{whose}: {} runs in {:.1} s ({rate:.1} runs/s), {} part(s); {status}",
+            self.out.display(),
+            self.ran,
+            self.seconds,
+            self.parts_written
+        )
+    }
+}
+
+/// Key-value metadata of every part file.
+pub fn metadata(sweep: &Sweep) -> Vec<(String, String)> {
+    vec![
+        (
+            "mbmf_version".to_string(),
+            env!("CARGO_PKG_VERSION").to_string(),
+        ),
+        ("mbmf_sweep".to_string(), sweep.text.clone()),
+        ("mbmf_sweep_file".to_string(), sweep.file.clone()),
+        ("master_seed".to_string(), sweep.master_seed.to_string()),
+        ("mbmf_sweep_runs".to_string(), sweep.runs().to_string()),
+        ("mbmf_sweep_seeds".to_string(), sweep.seeds.to_string()),
+    ]
+}
+
+/// A batch being filled: the runs and, for each, its configuration and seed index.
+#[derive(Default)]
+struct Pending {
+    configs: Vec<RunConfig>,
+    meta: Vec<(u64, u32, usize)>,
+}
+
+/// Adds the sweep's own columns to a table from [`output`]: `config_index` and `seed_index`
+/// after `seed`, and the `profile` column with the sweep's profile names (user-defined profiles
+/// are `custom` to the engine).
+fn decorate(
+    table: RecordBatch,
+    rows: &[(u64, u32, usize)],
+    sweep: &Sweep,
+) -> Result<RecordBatch, OutputError> {
+    let schema = table.schema();
+    let mut fields: Vec<Field> = Vec::with_capacity(schema.fields().len() + 2);
+    let mut columns: Vec<ArrayRef> = Vec::with_capacity(fields.capacity());
+    for (field, column) in schema.fields().iter().zip(table.columns()) {
+        if field.name() == "profile" {
+            let names: StringArray = rows
+                .iter()
+                .map(|r| Some(sweep.profile_names[r.2].as_str()))
+                .collect();
+            fields.push(Field::new("profile", DataType::Utf8, false));
+            columns.push(Arc::new(names));
+        } else {
+            fields.push(field.as_ref().clone());
+            columns.push(Arc::clone(column));
+        }
+        if field.name() == "seed" {
+            fields.push(Field::new("config_index", DataType::UInt64, false));
+            columns.push(Arc::new(UInt64Array::from_iter_values(
+                rows.iter().map(|r| r.0),
+            )));
+            fields.push(Field::new("seed_index", DataType::UInt32, false));
+            columns.push(Arc::new(UInt32Array::from_iter_values(
+                rows.iter().map(|r| r.1),
+            )));
+        }
+    }
+    let schema = Arc::new(Schema::new_with_metadata(fields, schema.metadata().clone()));
+    Ok(RecordBatch::try_new(schema, columns)?)
+}
+
+/// The runs and series tables of a finished batch, with the sweep's columns.
+pub fn tables(
+    batch: &Batch,
+    meta: &[(u64, u32, usize)],
+    sweep: &Sweep,
+) -> Result<(RecordBatch, RecordBatch), OutputError> {
+    let runs = decorate(output::runs_batch(batch)?, meta, sweep)?;
+    let series_rows: Vec<(u64, u32, usize)> = meta
+        .iter()
+        .enumerate()
+        .flat_map(|(r, m)| std::iter::repeat_n(*m, batch.series(r).len()))
+        .collect();
+    let series = decorate(output::series_batch(batch)?, &series_rows, sweep)?;
+    Ok((runs, series))
+}
+
+/// The runs of `shard` not in `done`, grouped into batches of one task of at most `batch_size`
+/// runs, handed to `emit` one by one (so only a few batches exist at a time).
+fn plan(
+    sweep: &Sweep,
+    shard: Shard,
+    done: &store::RunSet,
+    batch_size: usize,
+    mut emit: impl FnMut(usize, Pending) -> Result<(), RunError>,
+) -> Result<(), RunError> {
+    let mut pending: Vec<Pending> = (0..sweep.tasks.len()).map(|_| Pending::default()).collect();
+    let seeds = u64::from(sweep.seeds);
+    for config in shard.configs(sweep.configurations()) {
+        let first = config * seeds;
+        if (0..seeds).all(|s| done.contains(first + s)) {
+            continue;
+        }
+        let resolved = sweep.resolve(config);
+        for s in 0..seeds {
+            let run = first + s;
+            if done.contains(run) {
+                continue;
+            }
+            let p = &mut pending[resolved.task];
+            p.configs.push(RunConfig {
+                params: resolved.params,
+                seed: sweep.master_seed,
+                run_index: run,
+            });
+            p.meta.push((config, s as u32, resolved.profile));
+            if p.configs.len() >= batch_size {
+                emit(resolved.task, std::mem::take(p))?;
+            }
+        }
+    }
+    for (task, p) in pending.into_iter().enumerate() {
+        if !p.configs.is_empty() {
+            emit(task, p)?;
+        }
+    }
+    Ok(())
+}
+
+/// Runs `sweep` (the shard of `options`) into `options.out`. `warn` receives warnings, such as
+/// a stale lock taken over.
+pub fn execute(
+    sweep: &Sweep,
+    specs: &[Arc<Spec>],
+    options: &Options,
+    warn: &mut dyn FnMut(&str),
+) -> Result<Report, RunError> {
+    let started = Instant::now();
+    let out = &options.out;
+    let shard = options.shard;
+    let total = sweep.runs();
+    let seeds = u64::from(sweep.seeds);
+    // Fail in a second, not after an hour: the folder is checked and locked before simulating.
+    store::check_folder(out, &sweep.text, &sweep.file)?;
+    let (_lock, stale) = Lock::acquire(out, shard)?;
+    if let Some(w) = stale {
+        warn(&w);
+    }
+    store::init_folder(out, &sweep.text, &sweep.file)?;
+    let owned = |first_run: u64| shard.owns(first_run / seeds);
+    let scan = store::scan(out, total, &owned)?;
+    if !options.resume && (scan.own_parts > 0 || !scan.leftovers.is_empty()) {
+        return Err(StoreError::AlreadyStarted {
+            dir: out.clone(),
+            parts: scan.own_parts + scan.leftovers.len(),
+        }
+        .into());
+    }
+    store::remove_leftovers(&scan.leftovers)?;
+
+    let mut shard_runs = 0u64;
+    let mut shard_done = 0u64;
+    let mut steps_to_run = 0u64;
+    for config in shard.configs(sweep.configurations()) {
+        shard_runs += seeds;
+        let first = config * seeds;
+        let missing = (0..seeds)
+            .filter(|s| !scan.done.contains(first + s))
+            .count() as u64;
+        shard_done += seeds - missing;
+        if missing > 0 {
+            let p = sweep.resolve(config).params;
+            steps_to_run += missing * (u64::from(p.babbling) + u64::from(p.steps));
+        }
+    }
+    let to_run = shard_runs - shard_done;
+    if !options.quiet && shard_done > 0 {
+        eprintln!(
+            "resuming {}: {shard_done} of {shard_runs} runs{} already done, {to_run} to run",
+            out.display(),
+            if shard == Shard::ALL {
+                String::new()
+            } else {
+                format!(" of shard {shard}")
+            }
+        );
+    }
+    let bar = experiment::progress_bar(steps_to_run, options.quiet);
+    let metadata = metadata(sweep);
+    let mut ran = 0u64;
+    let mut parts_written = 0usize;
+    let set_message = |ran: u64| {
+        let secs = started.elapsed().as_secs_f64().max(1e-9);
+        bar.set_message(format!(
+            "{}/{to_run} runs, {:.1} runs/s",
+            ran,
+            ran as f64 / secs
+        ));
+    };
+    set_message(0);
+    plan(
+        sweep,
+        shard,
+        &scan.done,
+        options.batch_size.max(1),
+        |task, pending| {
+            let Pending { configs, meta } = pending;
+            let first = configs.iter().map(|c| c.run_index).min().unwrap_or(0);
+            let last = configs.iter().map(|c| c.run_index).max().unwrap_or(0);
+            let name = store::part_name(first, last, total);
+            experiment::simulate(
+                &specs[task],
+                &configs,
+                configs.len(),
+                &bar,
+                |batch: &Batch| {
+                    let (runs, series) = tables(batch, &meta, sweep)?;
+                    store::write_part(out, &name, &runs, &series, &metadata)?;
+                    Ok::<(), RunError>(())
+                },
+            )?;
+            ran += configs.len() as u64;
+            parts_written += 1;
+            set_message(ran);
+            Ok(())
+        },
+    )?;
+    bar.finish_and_clear();
+    Ok(Report {
+        out: out.clone(),
+        shard,
+        total,
+        shard_runs,
+        shard_done_before: shard_done,
+        done_before: scan.done.len(),
+        ran,
+        parts_written,
+        seconds: started.elapsed().as_secs_f64(),
+    })
+}
+
+/// A rough duration of a sweep on this machine, from simulating a few sample runs.
+#[derive(Debug, Clone)]
+pub struct Estimate {
+    /// Estimated wall-clock seconds.
+    pub seconds: f64,
+    /// Worker threads assumed.
+    pub threads: usize,
+    /// Sample runs simulated.
+    pub samples: usize,
+    /// Seconds the samples took.
+    pub calibration_seconds: f64,
+    /// Agent-steps (babbling included) of the runs estimated.
+    pub agent_steps: u64,
+}
+
+/// Longest sample simulated: longer runs are timed on their start and scaled.
+const SAMPLE_MAX_STEPS: u32 = 20_000;
+const SAMPLE_MAX_BABBLING: u32 = 1_000;
+
+/// Estimates the time of the runs of `shard` by timing up to two sample runs of every (task,
+/// controller) group, the factors that set a run's cost.
+pub fn estimate(sweep: &Sweep, specs: &[Arc<Spec>], shard: Shard) -> Result<Estimate, ConfigError> {
+    struct Group {
+        task: usize,
+        controller: crate::params::Controller,
+        agent_steps: u64,
+        samples: Vec<u64>,
+    }
+    let mut groups: Vec<Group> = Vec::new();
+    let seeds = u64::from(sweep.seeds);
+    for config in shard.configs(sweep.configurations()) {
+        let r = sweep.resolve(config);
+        let steps = seeds * (u64::from(r.params.babbling) + u64::from(r.params.steps));
+        match groups
+            .iter_mut()
+            .find(|g| g.task == r.task && g.controller == r.params.controller)
+        {
+            Some(g) => {
+                g.agent_steps += steps;
+                // Keep the first and the latest configuration seen: two ends of the group.
+                if g.samples.len() < 2 {
+                    g.samples.push(config);
+                } else {
+                    g.samples[1] = config;
+                }
+            }
+            None => groups.push(Group {
+                task: r.task,
+                controller: r.params.controller,
+                agent_steps: steps,
+                samples: vec![config],
+            }),
+        }
+    }
+    let started = Instant::now();
+    let mut rates: Vec<Vec<f64>> = groups.iter().map(|_| Vec::new()).collect();
+    let mut samples = 0;
+    for task in 0..sweep.tasks.len() {
+        let mut configs = Vec::new();
+        let mut owners = Vec::new();
+        for (gi, g) in groups.iter().enumerate().filter(|(_, g)| g.task == task) {
+            for &config in &g.samples {
+                let mut params = sweep.resolve(config).params;
+                params.steps = params.steps.min(SAMPLE_MAX_STEPS);
+                params.babbling = params.babbling.min(SAMPLE_MAX_BABBLING);
+                configs.push(RunConfig {
+                    params,
+                    seed: sweep.master_seed,
+                    run_index: config * seeds,
+                });
+                owners.push(gi);
+            }
+        }
+        if configs.is_empty() {
+            continue;
+        }
+        samples += configs.len();
+        let mut batch = Batch::new(Arc::clone(&specs[task]), configs)?;
+        batch.run_to_end();
+        for ((config, stats), gi) in batch.configs().iter().zip(batch.stats()).zip(owners) {
+            let steps = u64::from(config.params.babbling) + u64::from(config.params.steps);
+            rates[gi].push(stats.wall_time_s / steps.max(1) as f64);
+        }
+    }
+    let cpu: f64 = groups
+        .iter()
+        .zip(&rates)
+        .map(|(g, r)| {
+            let rate = r.iter().sum::<f64>() / r.len().max(1) as f64;
+            rate * g.agent_steps as f64
+        })
+        .sum();
+    let threads = rayon::current_num_threads().max(1);
+    Ok(Estimate {
+        seconds: cpu / threads as f64,
+        threads,
+        samples,
+        calibration_seconds: started.elapsed().as_secs_f64(),
+        agent_steps: groups.iter().map(|g| g.agent_steps).sum(),
+    })
+}
+
+/// A duration for people: `45 s`, `3 min 20 s`, `2 h 05 min`.
+pub fn human_duration(seconds: f64) -> String {
+    let s = seconds.max(0.0).round() as u64;
+    match s {
+        0..=59 => format!("{:.0} s", seconds.max(0.0).ceil().max(1.0)),
+        60..=3599 => format!("{} min {:02} s", s / 60, s % 60),
+        _ => format!("{} h {:02} min", s / 3600, (s % 3600) / 60),
+    }
+}

@@ -1,0 +1,687 @@
+//! The dataset folder of a sweep, written so that a process killed at any moment leaves a valid
+//! dataset that `--resume` completes:
+//!
+//! ```text
+//! DIR/sweep.toml                        the sweep text (a resume with another text is refused)
+//! DIR/runs/part-FIRST-LAST.parquet      one row per run of one batch
+//! DIR/series/part-FIRST-LAST.parquet    one row per checkpoint of the same runs
+//! DIR/.lock-I-of-N                      held while shard I/N writes; names the holder's pid
+//! ```
+//!
+//! Every file is written under a hidden temporary name, synced and renamed, so a final name
+//! always holds a complete file. A batch writes its series part first and its runs part last:
+//! the runs part is the commit. A series part without its runs part is a leftover of a killed
+//! process and is deleted by the next process of the same shard. `FIRST` and `LAST` are the
+//! batch's smallest and largest run index; the runs it holds are listed in its `run_index`
+//! column (a resumed batch need not be contiguous).
+
+use std::fs::{self, File, OpenOptions};
+use std::io::{Read, Seek, Write};
+use std::os::unix::fs::MetadataExt;
+use std::path::{Path, PathBuf};
+
+use arrow::array::{Array, RecordBatch, UInt64Array};
+use parquet::arrow::ProjectionMask;
+use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
+
+use super::shard::Shard;
+use crate::output::{self, OutputError};
+
+/// Name of the copy of the sweep text inside the dataset folder.
+pub const SWEEP_FILE: &str = "sweep.toml";
+/// Folder of the per-run tables.
+pub const RUNS_DIR: &str = "runs";
+/// Folder of the per-checkpoint tables.
+pub const SERIES_DIR: &str = "series";
+
+/// A dataset folder that cannot be used as asked.
+#[derive(Debug, thiserror::Error)]
+pub enum StoreError {
+    /// The file system refused.
+    #[error("cannot {action} {path}: {source}")]
+    Io {
+        /// What was being done ("create", "write", "read", ...).
+        action: &'static str,
+        /// The file or folder.
+        path: PathBuf,
+        /// The cause.
+        source: std::io::Error,
+    },
+    /// Another live process holds this shard's lock.
+    #[error(
+        "{dir} is being written by {holder} (lock file {lock}); wait for it to finish or stop it: \
+         two processes must not write the same runs"
+    )]
+    Locked {
+        /// The dataset folder.
+        dir: PathBuf,
+        /// Who holds it.
+        holder: String,
+        /// The lock file.
+        lock: PathBuf,
+    },
+    /// A live process writes the folder with a different shard split.
+    #[error(
+        "{dir} is being written by {holder} as shard {theirs}, a different split from this \
+         process's shard {ours}: every process writing one folder must use the same shard count"
+    )]
+    SplitConflict {
+        /// The dataset folder.
+        dir: PathBuf,
+        /// Who holds the other lock.
+        holder: String,
+        /// Their shard.
+        theirs: String,
+        /// Ours.
+        ours: Shard,
+    },
+    /// The folder holds a different sweep.
+    #[error(
+        "{dir} holds a different sweep: its sweep.toml differs from {file} (first difference at \
+         line {line}); choose another --out, or run the sweep file stored there"
+    )]
+    DifferentSweep {
+        /// The dataset folder.
+        dir: PathBuf,
+        /// The sweep file given.
+        file: String,
+        /// First line that differs.
+        line: usize,
+    },
+    /// The folder holds something other than a sweep dataset.
+    #[error(
+        "{dir} is not empty and is not a sweep dataset (no sweep.toml; found '{example}'): choose \
+         a new or empty folder with --out"
+    )]
+    NotADataset {
+        /// The folder.
+        dir: PathBuf,
+        /// One of the unexpected entries.
+        example: String,
+    },
+    /// Results of this shard exist and `--resume` was not given.
+    #[error(
+        "{dir} already holds {parts} part(s) of this sweep: pass --resume to run only what is \
+         missing, or choose another --out"
+    )]
+    AlreadyStarted {
+        /// The folder.
+        dir: PathBuf,
+        /// Parts found.
+        parts: usize,
+    },
+    /// A part file that does not belong or cannot be read.
+    #[error("{path}: {reason}")]
+    BadPart {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong and what to do.
+        reason: String,
+    },
+    /// Writing a part failed.
+    #[error(transparent)]
+    Output(#[from] OutputError),
+}
+
+impl StoreError {
+    /// Whether the user asked for something that cannot be done (exit code 2), rather than the
+    /// machine failing (exit code 1).
+    pub fn is_usage(&self) -> bool {
+        matches!(
+            self,
+            StoreError::DifferentSweep { .. }
+                | StoreError::NotADataset { .. }
+                | StoreError::AlreadyStarted { .. }
+        )
+    }
+}
+
+fn io<'a>(action: &'static str, path: &'a Path) -> impl FnOnce(std::io::Error) -> StoreError + 'a {
+    move |source| StoreError::Io {
+        action,
+        path: path.to_path_buf(),
+        source,
+    }
+}
+
+/// The file name of the part holding runs `first..=last` of a sweep of `total` runs.
+pub fn part_name(first: u64, last: u64, total: u64) -> String {
+    let width = total.saturating_sub(1).to_string().len().max(6);
+    format!("part-{first:0width$}-{last:0width$}.parquet")
+}
+
+/// The first run index of a part file name, for committed parts and their temporary files.
+fn part_first(name: &str) -> Option<(u64, bool)> {
+    let (committed, rest) = match name.strip_prefix(".part-") {
+        Some(rest) => (false, rest.split_once(".parquet.tmp-")?.0),
+        None => (true, name.strip_prefix("part-")?.strip_suffix(".parquet")?),
+    };
+    let (first, last) = rest.split_once('-')?;
+    let first: u64 = first.parse().ok()?;
+    last.parse::<u64>().ok()?;
+    Some((first, committed))
+}
+
+/// The temporary name [`output::ParquetSink`] writes `name` under.
+fn sink_tmp_name(name: &str) -> String {
+    format!(".{name}.tmp-{}", std::process::id())
+}
+
+/// Syncs a folder so renames inside it survive a power loss (a kill needs no sync).
+fn sync_dir(dir: &Path) {
+    if let Ok(d) = File::open(dir) {
+        let _ = d.sync_all();
+    }
+}
+
+/// The host name, for lock files.
+fn host_name() -> String {
+    fs::read_to_string("/proc/sys/kernel/hostname")
+        .map(|s| s.trim().to_string())
+        .unwrap_or_else(|_| "unknown-host".into())
+}
+
+fn describe_holder(content: &str) -> String {
+    let field = |k: &str| {
+        content
+            .split_whitespace()
+            .find_map(|w| w.strip_prefix(k).and_then(|v| v.strip_prefix('=')))
+            .unwrap_or("?")
+            .to_string()
+    };
+    if content.trim().is_empty() {
+        return "another process (its lock file names no pid yet)".into();
+    }
+    format!("pid {} on host {}", field("pid"), field("host"))
+}
+
+/// The lock of one shard of a dataset folder: an advisory `flock` on `DIR/.lock-I-of-N`, which
+/// the kernel releases when the holder dies, so a lock file left by a killed process is stale.
+/// The file names the holder's pid and host for messages. Removed on drop.
+#[derive(Debug)]
+pub struct Lock {
+    file: File,
+    path: PathBuf,
+}
+
+impl Lock {
+    /// Takes the lock of `shard` in `dir`. Returns a warning when a stale lock of a dead
+    /// process was taken over. Refuses when a live process holds the same shard, or any shard
+    /// of a different split.
+    pub fn acquire(dir: &Path, shard: Shard) -> Result<(Lock, Option<String>), StoreError> {
+        let name = format!(".lock-{}-of-{}", shard.index, shard.count);
+        let path = dir.join(&name);
+        let mut attempts = 0;
+        let (mut file, previous) = loop {
+            attempts += 1;
+            let mut file = OpenOptions::new()
+                .read(true)
+                .write(true)
+                .create(true)
+                .truncate(false)
+                .open(&path)
+                .map_err(io("create lock file", &path))?;
+            match file.try_lock() {
+                Ok(()) => {}
+                Err(fs::TryLockError::WouldBlock) => {
+                    let mut content = String::new();
+                    let _ = file.read_to_string(&mut content);
+                    return Err(StoreError::Locked {
+                        dir: dir.to_path_buf(),
+                        holder: describe_holder(&content),
+                        lock: path,
+                    });
+                }
+                Err(fs::TryLockError::Error(e)) => return Err(io("lock", &path)(e)),
+            }
+            // The previous holder may have removed the file between our open and our lock:
+            // then we locked a deleted file and must start again.
+            let same = match (fs::metadata(&path), file.metadata()) {
+                (Ok(a), Ok(b)) => a.ino() == b.ino() && a.dev() == b.dev(),
+                _ => false,
+            };
+            if same {
+                let mut content = String::new();
+                let _ = file.read_to_string(&mut content);
+                break (file, content);
+            }
+            if attempts > 20 {
+                return Err(io("lock", &path)(std::io::Error::other(
+                    "the lock file keeps being replaced by another process",
+                )));
+            }
+        };
+        let warning = (!previous.trim().is_empty()).then(|| {
+            format!(
+                "taking over the stale lock {} of {}, which is no longer running",
+                path.display(),
+                describe_holder(&previous)
+            )
+        });
+        let started = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map(|d| d.as_secs())
+            .unwrap_or(0);
+        let record = format!(
+            "pid={} host={} shard={shard} started={started}\n",
+            std::process::id(),
+            host_name()
+        );
+        file.set_len(0)
+            .and_then(|()| file.rewind())
+            .and_then(|()| file.write_all(record.as_bytes()))
+            .map_err(io("write lock file", &path))?;
+        let lock = Lock { file, path };
+        lock.check_other_splits(dir, shard)?;
+        Ok((lock, warning))
+    }
+
+    /// Refuses if a live process holds a lock of a different shard count in `dir`.
+    fn check_other_splits(&self, dir: &Path, ours: Shard) -> Result<(), StoreError> {
+        let entries = fs::read_dir(dir).map_err(io("list", dir))?;
+        for entry in entries.flatten() {
+            let name = entry.file_name().to_string_lossy().into_owned();
+            let Some(rest) = name.strip_prefix(".lock-") else {
+                continue;
+            };
+            let Some((_, count)) = rest.split_once("-of-") else {
+                continue;
+            };
+            if count.parse::<u32>().ok() == Some(ours.count) {
+                continue;
+            }
+            let Ok(mut other) = OpenOptions::new().read(true).write(true).open(entry.path()) else {
+                continue;
+            };
+            if let Err(fs::TryLockError::WouldBlock) = other.try_lock() {
+                let mut content = String::new();
+                let _ = other.read_to_string(&mut content);
+                return Err(StoreError::SplitConflict {
+                    dir: dir.to_path_buf(),
+                    holder: describe_holder(&content),
+                    theirs: rest.replace("-of-", "/"),
+                    ours,
+                });
+            }
+            // Stale: nobody holds it. Remove it while we hold it (see the inode check above).
+            let _ = fs::remove_file(entry.path());
+        }
+        Ok(())
+    }
+}
+
+impl Drop for Lock {
+    fn drop(&mut self) {
+        // Remove while still holding the lock; the kernel drops the lock with the file handle.
+        let _ = fs::remove_file(&self.path);
+        let _ = self.file.unlock();
+    }
+}
+
+/// Creates `dir` if needed and checks that it is empty or a dataset of this sweep text.
+pub fn check_folder(dir: &Path, text: &str, file: &str) -> Result<(), StoreError> {
+    fs::create_dir_all(dir).map_err(io("create output folder", dir))?;
+    let sweep = dir.join(SWEEP_FILE);
+    match fs::read_to_string(&sweep) {
+        Ok(existing) => return compare_text(dir, &existing, text, file),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+        Err(e) => return Err(io("read", &sweep)(e)),
+    }
+    // No sweep.toml: accept only what a process killed during start-up leaves behind.
+    for entry in fs::read_dir(dir).map_err(io("list", dir))?.flatten() {
+        let name = entry.file_name().to_string_lossy().into_owned();
+        let harmless = name.starts_with(".lock-")
+            || name.starts_with(".sweep.toml.tmp-")
+            || ((name == RUNS_DIR || name == SERIES_DIR)
+                && fs::read_dir(entry.path())
+                    .map(|mut d| d.next().is_none())
+                    .unwrap_or(false));
+        if !harmless {
+            return Err(StoreError::NotADataset {
+                dir: dir.to_path_buf(),
+                example: name,
+            });
+        }
+    }
+    Ok(())
+}
+
+fn compare_text(dir: &Path, existing: &str, text: &str, file: &str) -> Result<(), StoreError> {
+    if existing == text {
+        return Ok(());
+    }
+    let line = existing
+        .lines()
+        .zip(text.lines())
+        .position(|(a, b)| a != b)
+        .unwrap_or_else(|| existing.lines().count().min(text.lines().count()))
+        + 1;
+    Err(StoreError::DifferentSweep {
+        dir: dir.to_path_buf(),
+        file: file.to_string(),
+        line,
+    })
+}
+
+/// Stores the sweep text as `DIR/sweep.toml` (atomically: written aside, then linked into place
+/// only if absent) and creates `runs/` and `series/`. Call while holding the lock.
+pub fn init_folder(dir: &Path, text: &str, file: &str) -> Result<(), StoreError> {
+    let sweep = dir.join(SWEEP_FILE);
+    if !sweep.exists() {
+        let tmp = dir.join(format!(".sweep.toml.tmp-{}", std::process::id()));
+        let written = File::create(&tmp)
+            .and_then(|mut f| f.write_all(text.as_bytes()).and_then(|()| f.sync_all()));
+        if let Err(e) = written {
+            let _ = fs::remove_file(&tmp);
+            return Err(io("write", &sweep)(e));
+        }
+        // hard_link fails if another shard stored it first; then compare below.
+        let linked = fs::hard_link(&tmp, &sweep);
+        let _ = fs::remove_file(&tmp);
+        match linked {
+            Ok(()) => sync_dir(dir),
+            Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {}
+            Err(e) => return Err(io("write", &sweep)(e)),
+        }
+    }
+    let existing = fs::read_to_string(&sweep).map_err(io("read", &sweep))?;
+    compare_text(dir, &existing, text, file)?;
+    for sub in [RUNS_DIR, SERIES_DIR] {
+        let path = dir.join(sub);
+        fs::create_dir_all(&path).map_err(io("create", &path))?;
+    }
+    Ok(())
+}
+
+/// A fixed-size set of run indices.
+#[derive(Debug, Clone)]
+pub struct RunSet {
+    words: Vec<u64>,
+    len: u64,
+}
+
+impl RunSet {
+    /// An empty set of runs `0..total`.
+    pub fn new(total: u64) -> RunSet {
+        RunSet {
+            words: vec![0; total.div_ceil(64) as usize],
+            len: 0,
+        }
+    }
+
+    /// Whether `run` is in the set.
+    pub fn contains(&self, run: u64) -> bool {
+        self.words[(run / 64) as usize] & (1u64 << (run % 64)) != 0
+    }
+
+    /// Adds `run`; false if it was already there.
+    pub fn insert(&mut self, run: u64) -> bool {
+        let word = &mut self.words[(run / 64) as usize];
+        let bit: u64 = 1 << (run % 64);
+        let fresh = *word & bit == 0;
+        *word |= bit;
+        // NOTE: not `self.len += u64::from(fresh)`: rustc 1.95.0 at opt-level 2 drops the
+        // comparison that defines `fresh` when a caller branches on the result, and adds garbage.
+        if fresh {
+            self.len += 1;
+        }
+        fresh
+    }
+
+    /// Number of runs in the set.
+    pub fn len(&self) -> u64 {
+        self.len
+    }
+
+    /// Whether the set is empty.
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+}
+
+/// What a dataset folder holds.
+#[derive(Debug)]
+pub struct Scan {
+    /// Runs whose results are committed.
+    pub done: RunSet,
+    /// Committed parts (all shards).
+    pub parts: usize,
+    /// Committed parts whose first run belongs to this shard.
+    pub own_parts: usize,
+    /// Leftovers of killed processes of this shard: temporary files and uncommitted series
+    /// parts, to delete before writing.
+    pub leftovers: Vec<PathBuf>,
+}
+
+fn list(dir: &Path) -> Result<Vec<String>, StoreError> {
+    let mut names: Vec<String> = fs::read_dir(dir)
+        .map_err(io("list", dir))?
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    Ok(names)
+}
+
+/// Reads the `run_index` column and the mbmf version of a runs part.
+fn read_runs_part(path: &Path) -> Result<(Vec<u64>, Option<String>), String> {
+    let file = File::open(path).map_err(|e| e.to_string())?;
+    let builder = ParquetRecordBatchReaderBuilder::try_new(file).map_err(|e| e.to_string())?;
+    let version = builder
+        .metadata()
+        .file_metadata()
+        .key_value_metadata()
+        .and_then(|kv| kv.iter().find(|k| k.key == "mbmf_version"))
+        .and_then(|k| k.value.clone());
+    let column = builder
+        .parquet_schema()
+        .columns()
+        .iter()
+        .position(|c| c.name() == "run_index")
+        .ok_or("no run_index column")?;
+    let mask = ProjectionMask::leaves(builder.parquet_schema(), [column]);
+    let reader = builder
+        .with_projection(mask)
+        .build()
+        .map_err(|e| e.to_string())?;
+    let mut runs = Vec::new();
+    for batch in reader {
+        let batch = batch.map_err(|e| e.to_string())?;
+        let col = batch
+            .column(0)
+            .as_any()
+            .downcast_ref::<UInt64Array>()
+            .ok_or("run_index is not an unsigned 64-bit column")?;
+        runs.extend(col.iter().flatten());
+    }
+    Ok((runs, version))
+}
+
+/// Lists the committed runs of `dir` (a sweep of `total` runs), and the leftovers that `owned`
+/// (a part's first run belongs to this shard) says this process may delete.
+pub fn scan(dir: &Path, total: u64, owned: &dyn Fn(u64) -> bool) -> Result<Scan, StoreError> {
+    let runs_dir = dir.join(RUNS_DIR);
+    let series_dir = dir.join(SERIES_DIR);
+    let mut done = RunSet::new(total);
+    let mut scan_parts = 0;
+    let mut own_parts = 0;
+    let mut leftovers = Vec::new();
+    let runs_names = if runs_dir.exists() {
+        list(&runs_dir)?
+    } else {
+        Vec::new()
+    };
+    let series_names = if series_dir.exists() {
+        list(&series_dir)?
+    } else {
+        Vec::new()
+    };
+    let version = env!("CARGO_PKG_VERSION");
+    for name in &runs_names {
+        let Some((first, committed)) = part_first(name) else {
+            continue;
+        };
+        let path = runs_dir.join(name);
+        if !committed {
+            if owned(first) {
+                leftovers.push(path);
+            }
+            continue;
+        }
+        if !series_names.contains(name) {
+            return Err(StoreError::BadPart {
+                path,
+                reason: format!(
+                    "has no matching {SERIES_DIR}/{name} (was it deleted?): delete this runs part \
+                     too, then resume to run its runs again"
+                ),
+            });
+        }
+        let (runs, part_version) = read_runs_part(&path).map_err(|e| StoreError::BadPart {
+            path: path.clone(),
+            reason: format!("cannot be read ({e}): delete it and its series part, then resume"),
+        })?;
+        if part_version.as_deref() != Some(version) {
+            return Err(StoreError::BadPart {
+                path,
+                reason: format!(
+                    "was written by mbmf {}, this is mbmf {version}: finish the sweep with that \
+                     version or start a new --out",
+                    part_version.as_deref().unwrap_or("(unknown)")
+                ),
+            });
+        }
+        for run in runs {
+            if run >= total {
+                return Err(StoreError::BadPart {
+                    path,
+                    reason: format!(
+                        "holds run {run}, but this sweep has {total} runs: not a part of this sweep"
+                    ),
+                });
+            }
+            if !done.insert(run) {
+                return Err(StoreError::BadPart {
+                    path,
+                    reason: format!(
+                        "holds run {run}, which another part holds too: delete one of the two \
+                         parts (with its series part) and resume"
+                    ),
+                });
+            }
+        }
+        let series_path = series_dir.join(name);
+        let series_ok = File::open(&series_path)
+            .map_err(|e| e.to_string())
+            .and_then(|f| ParquetRecordBatchReaderBuilder::try_new(f).map_err(|e| e.to_string()));
+        if let Err(e) = series_ok {
+            return Err(StoreError::BadPart {
+                path: series_path,
+                reason: format!("cannot be read ({e}): delete it and its runs part, then resume"),
+            });
+        }
+        scan_parts += 1;
+        // NOTE: `+= usize::from(bool)` is avoided: rustc 1.95 miscompiles it at opt-level 2 when
+        // the bool is also branched on (see RunSet::insert).
+        if owned(first) {
+            own_parts += 1;
+        }
+    }
+    for name in &series_names {
+        let Some((first, committed)) = part_first(name) else {
+            continue;
+        };
+        let uncommitted = !committed || !runs_names.contains(name);
+        if uncommitted && owned(first) {
+            leftovers.push(series_dir.join(name));
+        }
+    }
+    Ok(Scan {
+        done,
+        parts: scan_parts,
+        own_parts,
+        leftovers,
+    })
+}
+
+/// Deletes leftovers found by [`scan`].
+pub fn remove_leftovers(leftovers: &[PathBuf]) -> Result<(), StoreError> {
+    for path in leftovers {
+        match fs::remove_file(path) {
+            Ok(()) => {}
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+            Err(e) => return Err(io("remove", path)(e)),
+        }
+    }
+    Ok(())
+}
+
+/// Writes one batch as the part `name`: series first, runs last (the commit), each atomically.
+/// On failure nothing of the part is left behind.
+pub fn write_part(
+    dir: &Path,
+    name: &str,
+    runs: &RecordBatch,
+    series: &RecordBatch,
+    metadata: &[(String, String)],
+) -> Result<(), StoreError> {
+    let series_dir = dir.join(SERIES_DIR);
+    let runs_dir = dir.join(RUNS_DIR);
+    let series_path = series_dir.join(name);
+    let runs_path = runs_dir.join(name);
+    // NOTE: a sink whose finish fails keeps its temporary file; remove it here.
+    if let Err(e) = output::write_parquet(&series_path, series, metadata.to_vec()) {
+        let _ = fs::remove_file(series_dir.join(sink_tmp_name(name)));
+        return Err(e.into());
+    }
+    sync_dir(&series_dir);
+    if let Err(e) = output::write_parquet(&runs_path, runs, metadata.to_vec()) {
+        let _ = fs::remove_file(runs_dir.join(sink_tmp_name(name)));
+        let _ = fs::remove_file(&series_path);
+        return Err(e.into());
+    }
+    sync_dir(&runs_dir);
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn part_names_round_trip_to_their_first_run() {
+        let name = part_name(12, 511, 1000);
+        assert_eq!(name, "part-000012-000511.parquet");
+        assert_eq!(part_first(&name), Some((12, true)));
+        assert_eq!(part_first(&format!(".{name}.tmp-4242")), Some((12, false)));
+        assert_eq!(part_first("notes.txt"), None);
+        assert_eq!(part_name(5, 6, 10_000_000), "part-0000005-0000006.parquet");
+    }
+
+    #[test]
+    fn run_sets_count_distinct_runs() {
+        let mut s = RunSet::new(130);
+        assert!(s.insert(129) && s.insert(0) && !s.insert(129));
+        assert_eq!(s.len(), 2);
+        assert!(s.contains(129) && !s.contains(64));
+    }
+
+    #[test]
+    fn a_lock_is_refused_while_held_and_taken_over_when_stale() {
+        let dir = tempfile::tempdir().unwrap();
+        let shard = Shard::ALL;
+        let (held, warning) = Lock::acquire(dir.path(), shard).unwrap();
+        assert!(warning.is_none());
+        let err = Lock::acquire(dir.path(), shard).unwrap_err().to_string();
+        assert!(
+            err.contains(&format!("pid {}", std::process::id())),
+            "{err}"
+        );
+        let other_split = Lock::acquire(dir.path(), Shard { index: 0, count: 2 });
+        assert!(matches!(other_split, Err(StoreError::SplitConflict { .. })));
+        drop(held);
+        fs::write(dir.path().join(".lock-0-of-1"), "pid=999999999 host=gone\n").unwrap();
+        let (_lock, warning) = Lock::acquire(dir.path(), shard).unwrap();
+        assert!(warning.unwrap().contains("pid 999999999"));
+    }
+}
