@@ -152,6 +152,10 @@ pub fn checkpoint_count(params: &Params) -> usize {
 }
 
 /// R runs of one environment, with all their state in flat `[run, ...]` arrays.
+///
+/// `Clone` copies every run's state, so benchmarks can bring a batch to a state once and time
+/// further steps on copies of it.
+#[derive(Clone)]
 pub struct Batch {
     spec: Arc<Spec>,
     configs: Vec<RunConfig>,
@@ -278,6 +282,36 @@ impl Batch {
             configs,
             spec,
         })
+    }
+
+    /// Bytes of state the batch holds, all runs together: every per-run array, RNG, cursor,
+    /// accumulator, configuration and checkpoint row (the shared [`Spec`] is not counted).
+    pub fn state_bytes(&self) -> usize {
+        use std::mem::size_of_val;
+        fn bytes<T, D: ndarray::Dimension>(a: &ndarray::Array<T, D>) -> usize {
+            a.len() * std::mem::size_of::<T>()
+        }
+        bytes(&self.q_mf)
+            + bytes(&self.q_mb)
+            + bytes(&self.pavg_mf)
+            + bytes(&self.pavg_mb)
+            + bytes(&self.cost_mf)
+            + bytes(&self.cost_mb)
+            + bytes(&self.visited)
+            + bytes(&self.bonus)
+            + bytes(&self.ring)
+            + bytes(&self.ring_len)
+            + bytes(&self.ring_pos)
+            + bytes(&self.outcome_count)
+            + bytes(&self.outcome_reward)
+            + bytes(&self.known)
+            + bytes(&self.scratch)
+            + size_of_val(self.rngs.as_slice())
+            + size_of_val(self.cursors.as_slice())
+            + size_of_val(self.stats.as_slice())
+            + size_of_val(self.series.as_slice())
+            + size_of_val(self.series_start.as_slice())
+            + size_of_val(self.configs.as_slice())
     }
 
     /// Number of runs.

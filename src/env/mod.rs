@@ -6,6 +6,7 @@
 //! The MB expert's learned model reuses this indexing (it can only ever observe outcomes the
 //! environment can produce), which keeps its memory proportional to the real branching factor.
 
+pub mod grid;
 pub mod json;
 pub mod tidy;
 
@@ -195,7 +196,10 @@ pub fn load(task: &str) -> Result<Spec, EnvError> {
         "tidy1" => Ok(tidy::build(tidy::Variant::Task1)),
         "tidy2" => Ok(tidy::build(tidy::Variant::Task2)),
         _ => {
-            if let Some(path) = task.strip_prefix("json:") {
+            if let Some(n) = task.strip_prefix("grid:") {
+                // EnvError has no grid variant yet: the grid error travels in the task name.
+                grid::parse(n).map_err(|e| EnvError::UnknownTask(format!("{task} ({e})")))
+            } else if let Some(path) = task.strip_prefix("json:") {
                 Ok(json::load(&JsonPaths::beside(path), task)?)
             } else {
                 Err(EnvError::UnknownTask(task.to_string()))

@@ -1,0 +1,135 @@
+//! The whole step (SPEC 3.4), in agent-steps per second.
+//!
+//! - `step/<env>/<controller>/<phase>`: 64 runs on one thread, timed over a window of steps
+//!   starting at a phase of learning (the first 1,000 steps, right after babbling, or the end of
+//!   the experiment). The batch is brought to the phase once, then every iteration steps a clone.
+//! - `batch_size/<controller>/<threads>t/<runs>`: tidy1 from a fresh batch, 1 to 16,384 runs on
+//!   1 or 2 threads: the engine's overhead per run and its scaling across cores.
+//! - `naive/<controller>` against `engine/<controller>`: one whole tidy1 run (11,000 steps) by the
+//!   naive reference of `tests/naive` and by the batch engine (one run, one thread).
+//!
+//! Run: `cargo bench --bench step` (add a filter such as `-- step/tidy1/ec` to select).
+
+#[path = "common/mod.rs"]
+mod common;
+#[path = "../tests/naive/mod.rs"]
+mod naive;
+
+use std::sync::Arc;
+
+use criterion::{BatchSize, BenchmarkId, Criterion, SamplingMode, Throughput};
+use mbmf::batch::Batch;
+use mbmf::params::Controller;
+
+use common::{CONTROLLERS, Phase};
+
+/// Runs per batch in the per-environment matrix.
+const RUNS: usize = 64;
+
+/// Steps timed per iteration: 1,000 for the first-1000 phase; fewer for the expensive
+/// controllers elsewhere, so each benchmark stays within seconds.
+fn window(controller: Controller, phase: Phase) -> u64 {
+    match (phase, controller) {
+        (Phase::First1000, _) => 1000,
+        (_, Controller::Mb | Controller::Rnd) => 250,
+        _ => 1000,
+    }
+}
+
+/// Times `window` steps of clones of `template` on `pool`.
+fn time_window(
+    b: &mut criterion::Bencher<'_>,
+    template: &Batch,
+    pool: &rayon::ThreadPool,
+    window: u64,
+) {
+    b.iter_batched(
+        || template.clone(),
+        |mut batch| {
+            pool.install(|| batch.advance(window));
+            batch
+        },
+        BatchSize::PerIteration,
+    );
+}
+
+fn per_environment(c: &mut Criterion) {
+    let one = common::pool(1);
+    for (label, spec) in common::environments() {
+        let mut group = c.benchmark_group(format!("step/{label}"));
+        group.sampling_mode(SamplingMode::Flat);
+        for controller in CONTROLLERS {
+            let params = common::params(&spec, controller);
+            for phase in Phase::ALL {
+                let window = window(controller, phase);
+                // Bringing a batch to the end of the experiment is the slow part of setup: use
+                // both cores for it (results do not depend on the thread count).
+                let template =
+                    common::prepared(&spec, params, RUNS, phase.start(&params, window), 2);
+                group.throughput(Throughput::Elements(RUNS as u64 * window));
+                group.bench_with_input(
+                    BenchmarkId::new(controller.name(), phase.label()),
+                    &template,
+                    |b, template| time_window(b, template, &one, window),
+                );
+            }
+        }
+        group.finish();
+    }
+}
+
+fn batch_sizes(c: &mut Criterion) {
+    let spec = Arc::new(mbmf::env::load("tidy1").expect("built in"));
+    for (controller, window) in [(Controller::Mf, 200), (Controller::Ec, 50)] {
+        let mut group = c.benchmark_group(format!("batch_size/{}", controller.name()));
+        group.sampling_mode(SamplingMode::Flat);
+        let params = common::params(&spec, controller);
+        for runs in [1usize, 64, 1024, 16_384] {
+            let template = common::prepared(&spec, params, runs, 0, 1);
+            group.throughput(Throughput::Elements(runs as u64 * window));
+            for threads in [1, 2] {
+                let pool = common::pool(threads);
+                group.bench_with_input(
+                    BenchmarkId::new(format!("{threads}t"), runs),
+                    &template,
+                    |b, template| time_window(b, template, &pool, window),
+                );
+            }
+        }
+        group.finish();
+    }
+}
+
+fn naive_baseline(c: &mut Criterion) {
+    let spec = Arc::new(mbmf::env::load("tidy1").expect("built in"));
+    let one = common::pool(1);
+    let mut group = c.benchmark_group("naive_vs_engine/tidy1");
+    group.sampling_mode(SamplingMode::Flat);
+    for controller in CONTROLLERS {
+        let params = common::params(&spec, controller);
+        let steps = u64::from(params.babbling) + u64::from(params.steps);
+        group.throughput(Throughput::Elements(steps));
+        group.bench_function(BenchmarkId::new("naive", controller.name()), |b| {
+            b.iter_batched(
+                || naive::NaiveRun::new(&spec, params, common::SEED, 0),
+                |mut run| {
+                    run.run_to_end();
+                    run
+                },
+                BatchSize::PerIteration,
+            )
+        });
+        let template = common::prepared(&spec, params, 1, 0, 1);
+        group.bench_function(BenchmarkId::new("engine", controller.name()), |b| {
+            time_window(b, &template, &one, steps)
+        });
+    }
+    group.finish();
+}
+
+criterion::criterion_group! {
+    name = benches;
+    config = common::quick();
+    targets = per_environment, batch_sizes, naive_baseline
+}
+criterion::criterion_main!(benches);

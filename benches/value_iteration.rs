@@ -1,0 +1,127 @@
+//! Value iteration alone (`Model::value_iteration`, SPEC 3.2), in (s, a, s') terms per second.
+//!
+//! The model is the one an MB run has learned by the end of its experiment (stepped by the
+//! engine's own per-run kernel), so it holds every transition the run has seen.
+//!
+//! - `warm`: Q as the run left it, as in the experiment: typically one sweep that confirms
+//!   convergence.
+//! - `cold`: Q reset to q_init, so the call sweeps until the values converge from scratch.
+//!
+//! Run: `cargo bench --bench value_iteration`.
+
+#[path = "common/mod.rs"]
+mod common;
+
+use criterion::{BatchSize, BenchmarkId, Criterion, Throughput};
+use mbmf::batch::{Checkpoint, Cursor, RunStats, RunView, checkpoint_count, run_rng, step};
+use mbmf::env::Spec;
+use mbmf::expert::mb::OwnedModel;
+use mbmf::params::{Controller, Params};
+
+/// One MB run with owned arrays, run to its end by the engine's step kernel.
+struct Learned {
+    params: Params,
+    q_mb: Vec<f64>,
+    model: OwnedModel,
+}
+
+fn learn(spec: &Spec) -> Learned {
+    let params = common::params(spec, Controller::Mb);
+    let (n_s, n_a) = (spec.n_states, spec.n_actions);
+    let sa = n_s * n_a;
+    let window_cap = params.window_n as usize;
+    let mut q_mf = vec![params.q_init; sa];
+    let mut q_mb = vec![params.q_init; sa];
+    let mut pavg_mf = vec![1.0 / n_a as f64; sa];
+    let mut pavg_mb = vec![1.0 / n_a as f64; sa];
+    let mut cost_mf = vec![0.0; n_s];
+    let mut cost_mb = vec![0.0; n_s];
+    let mut visited = vec![false; n_s];
+    let mut bonus = vec![0; sa];
+    let mut model = OwnedModel::new(spec, window_cap);
+    let mut scratch = vec![0.0; 2 * n_a];
+    let mut rng = run_rng(common::SEED, 0);
+    let mut cursor = Cursor {
+        state: mbmf::batch::initial_state(spec, &mut rng),
+        ..Cursor::default()
+    };
+    let mut stats = RunStats::default();
+    let mut series = vec![Checkpoint::default(); checkpoint_count(&params)];
+    let total = u64::from(params.babbling) + u64::from(params.steps);
+    {
+        let mut view = RunView {
+            q_mf: &mut q_mf,
+            q_mb: &mut q_mb,
+            pavg_mf: &mut pavg_mf,
+            pavg_mb: &mut pavg_mb,
+            cost_mf: &mut cost_mf,
+            cost_mb: &mut cost_mb,
+            visited: &mut visited,
+            bonus: &mut bonus,
+            model: model.view(),
+            scratch: &mut scratch,
+            rng: &mut rng,
+            cursor: &mut cursor,
+            stats: &mut stats,
+            series: &mut series,
+        };
+        while view.cursor.t < total {
+            step(spec, &params, window_cap, &mut view);
+        }
+    }
+    Learned {
+        params,
+        q_mb,
+        model,
+    }
+}
+
+fn value_iteration(c: &mut Criterion) {
+    let mut group = c.benchmark_group("value_iteration");
+    for (label, spec) in common::environments() {
+        let mut learned = learn(&spec);
+        let p = learned.params;
+        let cold_q = vec![p.q_init; learned.q_mb.len()];
+        for (start, q) in [("warm", learned.q_mb.clone()), ("cold", cold_q)] {
+            // One probe call gives the work per call, so rates read as terms per second.
+            let mut probe = q.clone();
+            let report = learned.model.view().value_iteration(
+                &spec,
+                &mut probe,
+                p.gamma_mb,
+                p.vi_epsilon,
+                p.vi_max_sweeps,
+            );
+            let terms = report.ops / (1 + spec.n_actions as u64);
+            eprintln!(
+                "value_iteration/{label}/{start}: {} sweeps, {terms} terms per call",
+                report.sweeps
+            );
+            group.throughput(Throughput::Elements(terms));
+            let model = &mut learned.model;
+            group.bench_function(BenchmarkId::new(label, start), |b| {
+                b.iter_batched_ref(
+                    || q.clone(),
+                    |q| {
+                        model.view().value_iteration(
+                            &spec,
+                            q,
+                            p.gamma_mb,
+                            p.vi_epsilon,
+                            p.vi_max_sweeps,
+                        )
+                    },
+                    BatchSize::SmallInput,
+                )
+            });
+        }
+    }
+    group.finish();
+}
+
+criterion::criterion_group! {
+    name = benches;
+    config = common::quick();
+    targets = value_iteration
+}
+criterion::criterion_main!(benches);
