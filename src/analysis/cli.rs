@@ -260,11 +260,12 @@ pub fn stats(args: &StatsArgs) -> Result<(), Failure> {
 
 fn print_comparison(c: &Comparison) {
     println!(
-        "{}: {} by {} (two-sided Wilcoxon-Mann-Whitney tests, Holm-corrected over {} pairs)",
+        "{}: {} by {} (two-sided Wilcoxon-Mann-Whitney tests, Holm-corrected over {} pair{})",
         c.source,
         c.metric,
         c.by,
-        c.pairs.len()
+        c.pairs.len(),
+        if c.pairs.len() == 1 { "" } else { "s" }
     );
     let headers: Vec<String> = [c.by.as_str(), "n", "mean", "sd", "median"]
         .iter()
@@ -479,29 +480,40 @@ fn row_label(r: &MinBudget, g: usize) -> Vec<String> {
         .collect()
 }
 
-/// A number with four significant digits, scientific notation outside [1e-3, 1e6); `-` for
+/// A number with four significant digits, scientific notation outside [1e-3, 1e7); `-` for
 /// NaN.
 fn num(x: f64) -> String {
-    if !x.is_finite() {
-        return "-".to_owned();
+    match decimals(x) {
+        Some(d) => format!("{x:.d$}"),
+        None if x.is_finite() => format!("{x:.3e}"),
+        None => "-".to_owned(),
     }
-    if x == 0.0 {
-        return "0".to_owned();
-    }
-    let magnitude = x.abs().log10().floor();
-    if !(-3.0..6.0).contains(&magnitude) {
-        return format!("{x:.3e}");
-    }
-    let decimals = (3.0 - magnitude).max(0.0) as usize;
-    format!("{x:.decimals$}")
 }
 
-/// `mean ± ci`, or the mean alone when the interval is undefined.
+/// Decimals that show `x` with four significant digits, or `None` where [`num`] uses
+/// scientific notation (or `x` is not finite).
+fn decimals(x: f64) -> Option<usize> {
+    if !x.is_finite() {
+        return None;
+    }
+    if x == 0.0 {
+        return Some(0);
+    }
+    let magnitude = x.abs().log10().floor();
+    (-3.0..7.0)
+        .contains(&magnitude)
+        .then(|| (3.0 - magnitude).max(0.0) as usize)
+}
+
+/// `mean ± ci` with both at the mean's precision, or the mean alone when the interval is
+/// undefined.
 fn mean_ci(mean: f64, ci: f64) -> String {
-    if ci.is_finite() {
-        format!("{} ± {}", num(mean), num(ci))
-    } else {
-        num(mean)
+    if !ci.is_finite() {
+        return num(mean);
+    }
+    match decimals(mean) {
+        Some(d) => format!("{mean:.d$} ± {ci:.d$}"),
+        None => format!("{} ± {ci:.3e}", num(mean)),
     }
 }
 

@@ -832,8 +832,10 @@ fn parquet_files(dir: &Path, keep: impl Fn(&str) -> bool) -> Result<Vec<PathBuf>
 /// Files are concatenated; a column missing from some files is null there.
 pub fn read_dataset(path: &Path, name: &str) -> Result<Table, DatasetError> {
     let files = dataset_files(path, name)?;
+    let single = path.join(format!("{name}.parquet"));
     let mut table = Table::new(match files.as_slice() {
-        [one] => one.display().to_string(),
+        [one] if path.is_file() || *one == single => one.display().to_string(),
+        [_] => format!("{} (1 {name} file)", path.display()),
         many => format!("{} ({} {name} files)", path.display(), many.len()),
     });
     for file in &files {
@@ -884,8 +886,9 @@ pub fn parameter_columns() -> &'static [String] {
     })
 }
 
-/// Columns that identify a run rather than configure it.
-pub const RUN_IDENTITY: [&str; 2] = ["run_index", "seed"];
+/// Columns that identify a run rather than configure it or report on it: never grouped by,
+/// never averaged (`config_index` and `seed_index` are added by `mbmf sweep`).
+pub const RUN_IDENTITY: [&str; 4] = ["run_index", "seed", "config_index", "seed_index"];
 
 /// The configuration columns of `table`: its parameter columns except `run_index` and `seed`,
 /// in the order `mbmf` writes them.
