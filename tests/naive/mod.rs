@@ -1,0 +1,702 @@
+//! A deliberately naive reference implementation of SPEC sections 2–7: one run at a time, nested
+//! `Vec`s, a `VecDeque` window per state-action pair and a `HashMap` reward memory, with every
+//! formula written in the SPEC's literal arithmetic order. It is written from the SPEC, not from
+//! `src/`, and is meant to be obviously correct rather than fast.
+//!
+//! It shares with the engine only what is a contract rather than a computation: the environment
+//! tables ([`Spec`]), the parameters ([`Params`]), the result records ([`RunStats`],
+//! [`Checkpoint`]) and the random stream: [`run_rng`], [`uniform`], [`Spec::pick_outcome`] and the
+//! draw order documented at the top of `src/batch/step.rs`:
+//!
+//! 1. the human's attentiveness at a takeover opportunity,
+//! 2. the MC's draw (`rnd`, softmax selection, or an argmax tie),
+//! 3. the action,
+//! 4. the environment's outcome (pairs with several outcomes only),
+//! 5. the human's attentiveness at a congratulation or punishment opportunity;
+//!
+//! plus one draw for an initial state (at creation, at a reset step and at the end of babbling)
+//! when the environment has several. So a run simulated here can be compared bit for bit with the
+//! same run in a [`mbmf::batch::Batch`].
+//!
+//! Three formulas can be evaluated in another floating-point order than the SPEC writes them,
+//! with the same mathematical value but different last bits; [`Arithmetic`] selects which order.
+//! [`NaiveRun::new`] follows the SPEC literally.
+//!
+//! Included by tests and benches with `#[path = "../tests/naive/mod.rs"] mod naive;` (from
+//! `benches/`) or `mod naive;` (from `tests/`).
+#![allow(dead_code)]
+
+use std::collections::{BTreeMap, HashMap, VecDeque};
+
+use mbmf::batch::{Checkpoint, RunStats, run_rng, uniform};
+use mbmf::env::{NO_TAKEOVER, Spec};
+use mbmf::params::{Controller, CostModel, Interaction, Params, Selection};
+use rand_xoshiro::Xoshiro256PlusPlus;
+
+/// Divisor of the EC costs when both are 0 (SPEC 4: "a tiny constant"; the costs divided are
+/// then 0, so its value does not matter).
+const TINY: f64 = 1e-12;
+
+/// Floating-point evaluation order of the three formulas where the engine's order differs from
+/// the SPEC's literal one. Both give the same mathematical value; only the last bits differ.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Arithmetic {
+    /// The SPEC's formulas as written: softmax divides by tau and by the sum; P(MB) =
+    /// 1 / (1 + exp((v_mf - v_mb) / tau)); EC value -(H + kappa * (C / max C)).
+    Spec,
+    /// The engine's order (src/expert/mod.rs, src/meta.rs at the time of writing): softmax
+    /// multiplies by 1 / tau and by 1 / sum; P(MB) = e / (1 + e) with e = exp(-z) when
+    /// z = (v_mf - v_mb) / tau > 0; EC value -(H + (kappa * C) / max C).
+    Engine,
+}
+
+/// One run of SPEC 3.4 / 7, simulated naively.
+pub struct NaiveRun {
+    spec: Spec,
+    params: Params,
+    arithmetic: Arithmetic,
+    rng: Xoshiro256PlusPlus,
+    /// Current environment state.
+    state: usize,
+    /// Steps taken, babbling included.
+    t: u64,
+    /// Interactions the human may still give.
+    budget_left: u32,
+    /// MF action values `q_mf[s][a]`.
+    q_mf: Vec<Vec<f64>>,
+    /// MB action values `q_mb[s][a]`.
+    q_mb: Vec<Vec<f64>>,
+    /// Moving average of the MF's action probabilities per state.
+    avg_p_mf: Vec<Vec<f64>>,
+    /// Moving average of the MB's action probabilities per state.
+    avg_p_mb: Vec<Vec<f64>>,
+    /// Moving average of the MF's inference cost per state.
+    avg_cost_mf: Vec<f64>,
+    /// Moving average of the MB's inference cost per state.
+    avg_cost_mb: Vec<f64>,
+    /// Whether the robot has already decided in each state (first-decision rule, SPEC 4).
+    decided_in: Vec<bool>,
+    /// G(s, a) of Eq. 8.
+    g: Vec<Vec<bool>>,
+    /// Next states of the last N executions of each (s, a), oldest first (Eq. 1).
+    window: Vec<Vec<VecDeque<usize>>>,
+    /// Most recent reward received on each (s, a, s').
+    last_reward: HashMap<(usize, usize, usize), f64>,
+    stats: RunStats,
+    series: Vec<Checkpoint>,
+    /// Sum of P(MB) over the decisions since the last checkpoint.
+    window_p_mb: f64,
+    /// Decisions since the last checkpoint.
+    window_decisions: u32,
+}
+
+impl NaiveRun {
+    /// A fresh run: Q = q_init, uniform averaged distributions, zero costs, empty model, placed
+    /// in an initial state (SPEC 3.3, 7). The SPEC's literal arithmetic.
+    pub fn new(spec: &Spec, params: Params, seed: u64, run_index: u64) -> NaiveRun {
+        NaiveRun::with_arithmetic(spec, params, seed, run_index, Arithmetic::Spec)
+    }
+
+    /// As [`NaiveRun::new`], with the given evaluation order of the three formulas concerned.
+    pub fn with_arithmetic(
+        spec: &Spec,
+        params: Params,
+        seed: u64,
+        run_index: u64,
+        arithmetic: Arithmetic,
+    ) -> NaiveRun {
+        assert_eq!(
+            params.cost_model,
+            CostModel::Ops,
+            "the naive reference measures cost in ops only"
+        );
+        let (n_s, n_a) = (spec.n_states, spec.n_actions);
+        let mut rng = run_rng(seed, run_index);
+        let state = draw_initial_state(spec, &mut rng);
+        NaiveRun {
+            spec: spec.clone(),
+            params,
+            arithmetic,
+            rng,
+            state,
+            t: 0,
+            budget_left: params.human.budget,
+            q_mf: vec![vec![params.q_init; n_a]; n_s],
+            q_mb: vec![vec![params.q_init; n_a]; n_s],
+            avg_p_mf: vec![vec![1.0 / n_a as f64; n_a]; n_s],
+            avg_p_mb: vec![vec![1.0 / n_a as f64; n_a]; n_s],
+            avg_cost_mf: vec![0.0; n_s],
+            avg_cost_mb: vec![0.0; n_s],
+            decided_in: vec![false; n_s],
+            g: vec![vec![false; n_a]; n_s],
+            window: vec![vec![VecDeque::new(); n_a]; n_s],
+            last_reward: HashMap::new(),
+            stats: RunStats::default(),
+            series: Vec::new(),
+            window_p_mb: 0.0,
+            window_decisions: 0,
+        }
+    }
+
+    /// Babbling plus experiment steps.
+    pub fn total_steps(&self) -> u64 {
+        u64::from(self.params.babbling) + u64::from(self.params.steps)
+    }
+
+    /// Whether every step has been taken.
+    pub fn finished(&self) -> bool {
+        self.t >= self.total_steps()
+    }
+
+    /// Takes one step (babbling or experiment); returns false, doing nothing, once finished.
+    pub fn step(&mut self) -> bool {
+        if self.finished() {
+            return false;
+        }
+        let babbling_len = u64::from(self.params.babbling);
+        let babbling = self.t < babbling_len;
+        self.t += 1;
+        let t_exp = if babbling {
+            0
+        } else {
+            (self.t - babbling_len) as u32
+        };
+
+        if self.state == self.spec.goal as usize {
+            // SPEC 2.1: the reset step. Time passes; nothing is decided or learned.
+            self.state = draw_initial_state(&self.spec, &mut self.rng);
+        } else {
+            self.act(babbling, t_exp);
+        }
+
+        if babbling && self.t == babbling_len {
+            // SPEC 7: end of babbling, back to an initial state (not a step).
+            self.state = draw_initial_state(&self.spec, &mut self.rng);
+        }
+        if !babbling {
+            self.maybe_checkpoint(t_exp);
+        }
+        true
+    }
+
+    /// Takes every remaining step.
+    pub fn run_to_end(&mut self) {
+        while self.step() {}
+    }
+
+    /// The run's results so far (`wall_time_s` is always 0 here).
+    pub fn stats(&self) -> &RunStats {
+        &self.stats
+    }
+
+    /// Checkpoint rows written so far.
+    pub fn series(&self) -> &[Checkpoint] {
+        &self.series
+    }
+
+    /// MF action values, `[state][action]`.
+    pub fn q_mf(&self) -> &[Vec<f64>] {
+        &self.q_mf
+    }
+
+    /// MB action values, `[state][action]`.
+    pub fn q_mb(&self) -> &[Vec<f64>] {
+        &self.q_mb
+    }
+
+    /// Averaged action probabilities (MF, MB), `[state][action]`.
+    pub fn averaged_probabilities(&self) -> (&[Vec<f64>], &[Vec<f64>]) {
+        (&self.avg_p_mf, &self.avg_p_mb)
+    }
+
+    /// Per-state inference cost averages (MF, MB).
+    pub fn cost_averages(&self) -> (&[f64], &[f64]) {
+        (&self.avg_cost_mf, &self.avg_cost_mb)
+    }
+
+    /// The learned T(s, a, s') (Eq. 1); 0 for an untried pair.
+    pub fn transition(&self, s: usize, a: usize, next: usize) -> f64 {
+        let kept = &self.window[s][a];
+        if kept.is_empty() {
+            return 0.0;
+        }
+        let count = kept.iter().filter(|&&x| x == next).count();
+        count as f64 / kept.len() as f64
+    }
+
+    /// Current environment state.
+    pub fn state(&self) -> usize {
+        self.state
+    }
+
+    /// Steps taken, babbling included.
+    pub fn t(&self) -> u64 {
+        self.t
+    }
+
+    /// Interactions the human may still give.
+    pub fn budget_left(&self) -> u32 {
+        self.budget_left
+    }
+
+    /// Steps 2 to 8 of SPEC 3.4 in a state that is not the goal.
+    fn act(&mut self, babbling: bool, t_exp: u32) {
+        let s = self.state;
+        let human_present = !babbling && self.budget_left > 0;
+        let interaction = self.params.human.interaction;
+
+        // 2. Takeover: the human puts the held cube instead of the robot.
+        let mut human_action = None;
+        let put = self.takeover_put(s);
+        if let (true, Interaction::Takeover, Some(put)) = (human_present, interaction, put) {
+            if self.human_is_attentive() {
+                human_action = Some(put);
+                self.stats.takeovers += 1;
+                self.spend_budget(t_exp);
+            } else {
+                self.stats.forgotten += 1;
+            }
+        }
+        let a = match human_action {
+            Some(a) => a,
+            None => self.decide(s, babbling),
+        };
+
+        // 6. Environment.
+        let next = self.environment(s, a);
+        let reward = if babbling {
+            0.0
+        } else if next == self.spec.goal as usize {
+            self.spec.goal_reward
+        } else {
+            0.0
+        };
+
+        // 7. Feedback: G(s, a) = 1 after an attentive congratulation (or punishment), else 0.
+        let mut given = false;
+        if human_present && self.budget_left > 0 {
+            let opportunity = match interaction {
+                Interaction::Congratulation => self.is_relevant(s, a),
+                Interaction::Punishment => self.is_error(s, a),
+                Interaction::None | Interaction::Takeover => false,
+            };
+            if opportunity {
+                if self.human_is_attentive() {
+                    given = true;
+                    if interaction == Interaction::Congratulation {
+                        self.stats.congratulations += 1;
+                    } else {
+                        self.stats.punishments += 1;
+                    }
+                    self.spend_budget(t_exp);
+                } else {
+                    self.stats.forgotten += 1;
+                }
+            }
+        }
+        self.g[s][a] = given;
+
+        // 8. Learning.
+        if self.runs_mf() {
+            self.mf_learn(s, a, reward, next);
+        }
+        if self.runs_mb() {
+            self.mb_learn(s, a, reward, next);
+        }
+
+        if !babbling {
+            self.stats.total_reward += reward;
+            if reward != 0.0 {
+                if self.stats.first_reward_step == 0 {
+                    self.stats.first_reward_step = t_exp;
+                }
+                let steps = self.params.steps;
+                if t_exp > steps - steps / 10 {
+                    self.stats.reward_last10 += reward;
+                }
+            }
+        }
+        self.state = next;
+    }
+
+    /// Steps 3 to 5 of SPEC 3.4: MC choice, inference, softmax, averaging, action draw.
+    fn decide(&mut self, s: usize, babbling: bool) -> usize {
+        let n_a = self.spec.n_actions;
+
+        // 3. The MC chooses from what earlier visits stored.
+        let (use_mb, p_mb) = self.choose_expert(s);
+        let chosen_entropy = normalised_entropy(if use_mb {
+            &self.avg_p_mb[s]
+        } else {
+            &self.avg_p_mf[s]
+        });
+
+        // 4. Inference: the chosen expert; both at a two-expert controller's first decision in s.
+        let first_decision_here = !self.decided_in[s];
+        self.decided_in[s] = true;
+        let both = first_decision_here && self.two_experts();
+        let alpha = self.params.filter_alpha;
+        let mut cost_mf = 0.0;
+        let mut cost_mb = 0.0;
+        if self.runs_mf() && (!use_mb || both) {
+            cost_mf = n_a as f64; // reads the row Q(s, .) (SPEC 6)
+            self.avg_cost_mf[s] = ema(self.avg_cost_mf[s], cost_mf, alpha);
+        }
+        if self.runs_mb() && (use_mb || both) {
+            cost_mb = self.value_iteration() as f64;
+            self.avg_cost_mb[s] = ema(self.avg_cost_mb[s], cost_mb, alpha);
+        }
+
+        // 5. Each running expert computes its (biased) softmax and folds it into its average.
+        let mut p_mf = Vec::new();
+        let mut p_mb_dist = Vec::new();
+        if self.runs_mf() {
+            p_mf = self.policy(&self.q_mf[s], s);
+            for (avg, &p) in self.avg_p_mf[s].iter_mut().zip(&p_mf) {
+                *avg = ema(*avg, p, alpha);
+            }
+        }
+        if self.runs_mb() {
+            p_mb_dist = self.policy(&self.q_mb[s], s);
+            for (avg, &p) in self.avg_p_mb[s].iter_mut().zip(&p_mb_dist) {
+                *avg = ema(*avg, p, alpha);
+            }
+        }
+        let u = uniform(&mut self.rng);
+        let a = draw_index(if use_mb { &p_mb_dist } else { &p_mf }, u);
+
+        if !babbling {
+            self.stats.cost_mf += cost_mf;
+            self.stats.cost_mb += cost_mb;
+            self.stats.decisions += 1;
+            if use_mb {
+                self.stats.mb_decisions += 1;
+            }
+            self.stats.p_mb_sum += p_mb;
+            self.stats.entropy_sum += chosen_entropy;
+            self.window_p_mb += p_mb;
+            self.window_decisions += 1;
+        }
+        a
+    }
+
+    /// SPEC 4: (MB controls this step, softmax probability of MB).
+    fn choose_expert(&mut self, s: usize) -> (bool, f64) {
+        match self.params.controller {
+            Controller::Mf => (false, 0.0),
+            Controller::Mb => (true, 1.0),
+            Controller::Rnd => (uniform(&mut self.rng) < 0.5, 0.5),
+            Controller::Ec | Controller::Entropy => {
+                let (v_mf, v_mb) = self.expert_values(s);
+                let z = (v_mf - v_mb) / self.params.tau;
+                let p_mb = match self.arithmetic {
+                    Arithmetic::Spec => 1.0 / (1.0 + z.exp()),
+                    Arithmetic::Engine if z > 0.0 => (-z).exp() / (1.0 + (-z).exp()),
+                    Arithmetic::Engine => 1.0 / (1.0 + z.exp()),
+                };
+                let use_mb = match self.params.selection {
+                    Selection::Softmax => uniform(&mut self.rng) < p_mb,
+                    Selection::Argmax => {
+                        if v_mb > v_mf {
+                            true
+                        } else if v_mf > v_mb {
+                            false
+                        } else {
+                            uniform(&mut self.rng) < 0.5
+                        }
+                    }
+                };
+                (use_mb, p_mb)
+            }
+        }
+    }
+
+    /// Eqs. 6–7: (value of MF, value of MB) in state s.
+    fn expert_values(&self, s: usize) -> (f64, f64) {
+        let bits_mf = entropy_bits(&self.avg_p_mf[s]);
+        let bits_mb = entropy_bits(&self.avg_p_mb[s]);
+        let (h_mf, h_mb) = if self.params.normalise_entropy {
+            (
+                normalised_entropy(&self.avg_p_mf[s]),
+                normalised_entropy(&self.avg_p_mb[s]),
+            )
+        } else {
+            (bits_mf, bits_mb)
+        };
+        if self.params.controller == Controller::Entropy {
+            return (-h_mf, -h_mb);
+        }
+        let kappa = (-self.params.kappa_coeff * bits_mf).exp();
+        let largest = self.avg_cost_mf[s].max(self.avg_cost_mb[s]);
+        let scale = if largest > 0.0 { largest } else { TINY };
+        let (c_mf, c_mb) = (self.avg_cost_mf[s], self.avg_cost_mb[s]);
+        match self.arithmetic {
+            Arithmetic::Spec => (
+                -(h_mf + kappa * (c_mf / scale)),
+                -(h_mb + kappa * (c_mb / scale)),
+            ),
+            Arithmetic::Engine => (
+                -(h_mf + kappa * c_mf / scale),
+                -(h_mb + kappa * c_mb / scale),
+            ),
+        }
+    }
+
+    /// Eqs. 3 and 8: softmax of Q(s, a) + bonus * G(s, a).
+    fn policy(&self, q_row: &[f64], s: usize) -> Vec<f64> {
+        let bonus = match self.params.human.interaction {
+            Interaction::Congratulation => self.params.human.zeta,
+            Interaction::Punishment => -self.params.human.zeta,
+            Interaction::None | Interaction::Takeover => 0.0,
+        };
+        let biased: Vec<f64> = q_row
+            .iter()
+            .zip(&self.g[s])
+            .map(|(&q, &g)| q + bonus * if g { 1.0 } else { 0.0 })
+            .collect();
+        softmax(&biased, self.params.tau, self.arithmetic)
+    }
+
+    /// MB inference (Eq. 2): in-place value iteration over the learned model; returns its cost in
+    /// ops (SPEC 6).
+    fn value_iteration(&mut self) -> u64 {
+        let (n_s, n_a) = (self.spec.n_states, self.spec.n_actions);
+        let goal = self.spec.goal as usize;
+        let gamma = self.params.gamma_mb;
+        let mut ops = 0;
+        let mut sweeps = 0;
+        loop {
+            let mut change = 0.0;
+            for s in 0..n_s {
+                if !self.is_known(s) {
+                    continue;
+                }
+                for a in 0..n_a {
+                    if self.window[s][a].is_empty() {
+                        continue; // untried: keeps its value
+                    }
+                    let t = self.transition_row(s, a);
+                    let mut r_sa = 0.0;
+                    for (&next, &p) in &t {
+                        r_sa += p * self.last_reward[&(s, a, next)];
+                    }
+                    let mut value = 0.0;
+                    for (&next, &p) in &t {
+                        let future = if next == goal {
+                            0.0
+                        } else {
+                            max(&self.q_mb[next])
+                        };
+                        value += p * (r_sa + gamma * future);
+                        ops += 1 + n_a as u64;
+                    }
+                    change += (value - self.q_mb[s][a]).abs();
+                    self.q_mb[s][a] = value;
+                }
+            }
+            sweeps += 1;
+            if change < self.params.vi_epsilon {
+                break;
+            }
+            if sweeps >= self.params.vi_max_sweeps {
+                self.stats.vi_capped += 1;
+                break;
+            }
+        }
+        self.stats.vi_calls += 1;
+        self.stats.vi_sweeps += u64::from(sweeps);
+        ops
+    }
+
+    /// T(s, a, .) from the window: s' (ascending) -> count / kept, for the s' with T > 0.
+    fn transition_row(&self, s: usize, a: usize) -> BTreeMap<usize, f64> {
+        let kept = &self.window[s][a];
+        let mut counts: BTreeMap<usize, u32> = BTreeMap::new();
+        for &next in kept {
+            *counts.entry(next).or_insert(0) += 1;
+        }
+        counts
+            .into_iter()
+            .map(|(next, c)| (next, f64::from(c) / kept.len() as f64))
+            .collect()
+    }
+
+    /// A state is known once some learned transition starts there.
+    fn is_known(&self, s: usize) -> bool {
+        self.window[s].iter().any(|w| !w.is_empty())
+    }
+
+    /// Eq. 4; the goal is terminal.
+    fn mf_learn(&mut self, s: usize, a: usize, r: f64, next: usize) {
+        let future = if next == self.spec.goal as usize {
+            0.0
+        } else {
+            max(&self.q_mf[next])
+        };
+        let q = self.q_mf[s][a];
+        self.q_mf[s][a] = q + self.params.alpha_mf * (r + self.params.gamma_mf * future - q);
+    }
+
+    /// SPEC 3.2: keep the last N outcomes of (s, a) and the last reward of (s, a, s').
+    fn mb_learn(&mut self, s: usize, a: usize, r: f64, next: usize) {
+        let kept = &mut self.window[s][a];
+        kept.push_back(next);
+        if kept.len() > self.params.window_n as usize {
+            kept.pop_front();
+        }
+        self.last_reward.insert((s, a, next), r);
+    }
+
+    /// The environment's answer to (s, a): one draw only when several outcomes are possible.
+    fn environment(&mut self, s: usize, a: usize) -> usize {
+        let sa = s * self.spec.n_actions + a;
+        let outcomes = self.spec.outcomes(sa);
+        let o = if outcomes.len() == 1 {
+            outcomes.start
+        } else {
+            self.spec.pick_outcome(sa, uniform(&mut self.rng))
+        };
+        self.spec.outcome_state[o] as usize
+    }
+
+    fn human_is_attentive(&mut self) -> bool {
+        uniform(&mut self.rng) >= self.params.human.forget_prob
+    }
+
+    fn spend_budget(&mut self, t_exp: u32) {
+        self.budget_left -= 1;
+        if self.budget_left == 0 {
+            self.stats.budget_exhausted_step = t_exp;
+        }
+    }
+
+    fn takeover_put(&self, s: usize) -> Option<usize> {
+        let put = self.spec.human.as_ref()?.takeover_action[s];
+        (put != NO_TAKEOVER).then_some(put as usize)
+    }
+
+    fn is_relevant(&self, s: usize, a: usize) -> bool {
+        let sa = s * self.spec.n_actions + a;
+        self.spec.human.as_ref().is_some_and(|h| h.relevant[sa])
+    }
+
+    fn is_error(&self, s: usize, a: usize) -> bool {
+        let sa = s * self.spec.n_actions + a;
+        self.spec.human.as_ref().is_some_and(|h| h.error[sa])
+    }
+
+    fn runs_mf(&self) -> bool {
+        self.params.controller != Controller::Mb
+    }
+
+    fn runs_mb(&self) -> bool {
+        self.params.controller != Controller::Mf
+    }
+
+    fn two_experts(&self) -> bool {
+        matches!(
+            self.params.controller,
+            Controller::Rnd | Controller::Ec | Controller::Entropy
+        )
+    }
+
+    /// A checkpoint row every `checkpoint` experiment steps and at the last step (SPEC 8).
+    fn maybe_checkpoint(&mut self, t_exp: u32) {
+        let k = self.params.checkpoint;
+        if k == 0 || !(t_exp.is_multiple_of(k) || t_exp == self.params.steps) {
+            return;
+        }
+        let p_mb_mean = if self.window_decisions > 0 {
+            self.window_p_mb / f64::from(self.window_decisions)
+        } else {
+            f64::NAN
+        };
+        self.series.push(Checkpoint {
+            step: t_exp,
+            cum_reward: self.stats.total_reward,
+            cum_cost_mf: self.stats.cost_mf,
+            cum_cost_mb: self.stats.cost_mb,
+            p_mb_mean,
+            decisions: self.window_decisions,
+            interactions: self.stats.congratulations
+                + self.stats.takeovers
+                + self.stats.punishments,
+        });
+        self.window_p_mb = 0.0;
+        self.window_decisions = 0;
+    }
+}
+
+/// An initial state, uniformly (one draw only when there are several).
+pub fn draw_initial_state(spec: &Spec, rng: &mut Xoshiro256PlusPlus) -> usize {
+    let n = spec.initial_states.len();
+    if n == 1 {
+        return spec.initial_states[0] as usize;
+    }
+    let i = ((uniform(rng) * n as f64) as usize).min(n - 1);
+    spec.initial_states[i] as usize
+}
+
+/// Numerically stable softmax: subtract the max, exp((v - max) / tau), divide by the sum
+/// (or, with [`Arithmetic::Engine`], multiply by the reciprocals of tau and of the sum).
+pub fn softmax(values: &[f64], tau: f64, arithmetic: Arithmetic) -> Vec<f64> {
+    let m = max(values);
+    let exps: Vec<f64> = match arithmetic {
+        Arithmetic::Spec => values.iter().map(|&v| ((v - m) / tau).exp()).collect(),
+        Arithmetic::Engine => values
+            .iter()
+            .map(|&v| ((v - m) * (1.0 / tau)).exp())
+            .collect(),
+    };
+    let mut sum = 0.0;
+    for &e in &exps {
+        sum += e;
+    }
+    match arithmetic {
+        Arithmetic::Spec => exps.iter().map(|&e| e / sum).collect(),
+        Arithmetic::Engine => exps.iter().map(|&e| e * (1.0 / sum)).collect(),
+    }
+}
+
+/// Base-2 entropy, 0 log 0 = 0 (Eq. 5).
+pub fn entropy_bits(p: &[f64]) -> f64 {
+    let mut h = 0.0;
+    for &x in p {
+        if x > 0.0 {
+            h -= x * x.log2();
+        }
+    }
+    h
+}
+
+/// Entropy divided by log2(|A|) (SPEC 3.3).
+pub fn normalised_entropy(p: &[f64]) -> f64 {
+    entropy_bits(p) / (p.len() as f64).log2()
+}
+
+/// Moving average: (1 - alpha) * old + alpha * new.
+pub fn ema(old: f64, new: f64, alpha: f64) -> f64 {
+    (1.0 - alpha) * old + alpha * new
+}
+
+/// The action of distribution `p` for a uniform `u`: the first index whose cumulative
+/// probability (over positive entries) exceeds `u`; if rounding leaves the total just under `u`,
+/// the last index with a positive probability.
+pub fn draw_index(p: &[f64], u: f64) -> usize {
+    let mut cumulative = 0.0;
+    let mut last_positive = 0;
+    for (i, &x) in p.iter().enumerate() {
+        if x > 0.0 {
+            cumulative += x;
+            last_positive = i;
+            if u < cumulative {
+                return i;
+            }
+        }
+    }
+    last_positive
+}
+
+fn max(row: &[f64]) -> f64 {
+    row.iter().copied().fold(f64::NEG_INFINITY, f64::max)
+}
