@@ -9,10 +9,12 @@ use clap::{Args, Parser, Subcommand, ValueEnum};
 
 use crate::batch::{Batch, RunConfig};
 use crate::env::{self, Spec};
+use crate::error::ConfigError;
 use crate::experiment;
 use crate::output;
 use crate::params::{
-    Controller, CostModel, HumanParams, Interaction, Params, Profile, Selection, default_steps,
+    Controller, CostModel, HumanParams, Interaction, Params, Profile, Selection, cli_flag,
+    default_steps,
 };
 
 /// Exit code for bad usage: unknown flags, values out of range, unreadable inputs.
@@ -49,8 +51,9 @@ pub fn runtime(error: impl Into<anyhow::Error>) -> Failure {
 #[derive(Debug, Parser)]
 #[command(name = "mbmf", version, about, long_about = None, help_expected = true)]
 pub struct Cli {
-    /// Worker threads (default: RAYON_NUM_THREADS, else every core). Results do not depend on it.
-    #[arg(long, global = true)]
+    /// Worker threads, 1 to 4096 (default: RAYON_NUM_THREADS, else every core). Results do not
+    /// depend on it.
+    #[arg(long, global = true, value_parser = threads_count, allow_negative_numbers = true)]
     pub threads: Option<usize>,
     /// What to do.
     #[command(subcommand)]
@@ -92,6 +95,9 @@ pub enum EnvCommand {
     Info {
         /// tidy1, tidy2 or json:PATH.
         task: String,
+        /// The json: task's files, if not beside the model.
+        #[command(flatten)]
+        files: TaskFiles,
     },
     /// Write a built-in task in the authors' transition-model format.
     ///
@@ -102,7 +108,21 @@ pub enum EnvCommand {
         /// Folder to write TASK.json, keyStates.txt and spaces.txt into.
         #[arg(long)]
         json: PathBuf,
+        /// The json: task's files, if not beside the model.
+        #[command(flatten)]
+        files: TaskFiles,
     },
+}
+
+/// Where a `json:` task's keyStates.txt and spaces.txt are, when not beside the model file.
+#[derive(Debug, Clone, Args, Default)]
+pub struct TaskFiles {
+    /// keyStates.txt of a json: task, if not beside the model file.
+    #[arg(long)]
+    pub key_states: Option<PathBuf>,
+    /// spaces.txt of a json: task, if not beside the model file.
+    #[arg(long)]
+    pub spaces: Option<PathBuf>,
 }
 
 /// On/off switch for flags that take a value.
@@ -118,34 +138,35 @@ pub enum Switch {
 #[derive(Debug, Clone, Args, Default)]
 pub struct ModelArgs {
     /// MF learning rate (Eq. 4), in (0, 1]. Default 0.6.
-    #[arg(long)]
+    #[arg(long, value_parser = number, allow_hyphen_values = true)]
     pub alpha_mf: Option<f64>,
     /// MF discount, in [0, 1). Default 0.9.
-    #[arg(long)]
+    #[arg(long, value_parser = number, allow_hyphen_values = true)]
     pub gamma_mf: Option<f64>,
     /// MB discount, in [0, 1). Default 0.95.
-    #[arg(long)]
+    #[arg(long, value_parser = number, allow_hyphen_values = true)]
     pub gamma_mb: Option<f64>,
-    /// Softmax temperature of MF, MB and the MC, > 0. Default 0.02.
-    #[arg(long)]
+    /// Softmax temperature of MF, MB and the MC, > 0 (at least 1e-300). Default 0.02.
+    #[arg(long, value_parser = number, allow_hyphen_values = true)]
     pub tau: Option<f64>,
-    /// Initial action values. Default 0 (paper).
-    #[arg(long, allow_hyphen_values = true)]
+    /// Initial action values, from -1e12 to 1e12. Default 0 (paper).
+    #[arg(long, value_parser = number, allow_hyphen_values = true)]
     pub q_init: Option<f64>,
     /// MB transition window N, 1 to 65535. Default 10.
-    #[arg(long)]
+    #[arg(long, value_parser = count, allow_negative_numbers = true)]
     pub window_n: Option<u32>,
-    /// Value iteration stops when a sweep's summed |dQ| is below this. Default 0.01.
-    #[arg(long)]
+    /// Value iteration stops when a sweep's summed |dQ| is below this, > 0. Default 0.01.
+    #[arg(long, value_parser = number, allow_hyphen_values = true)]
     pub vi_epsilon: Option<f64>,
-    /// Cap on value-iteration sweeps per inference (capped calls are counted). Default 10000.
-    #[arg(long)]
+    /// Cap on value-iteration sweeps per inference, >= 1. A call that reaches it stops unconverged
+    /// and is counted in the vi_capped column. Default 10000.
+    #[arg(long, value_parser = count, allow_negative_numbers = true)]
     pub vi_max_sweeps: Option<u32>,
     /// Weight of the new value in the moving averages, in (0, 1]. Default 0.6.
-    #[arg(long)]
+    #[arg(long, value_parser = number, allow_hyphen_values = true)]
     pub filter_alpha: Option<f64>,
     /// kappa = exp(-kappa_coeff * H_MF in bits) (Eq. 7), >= 0. Default 9.
-    #[arg(long)]
+    #[arg(long, value_parser = number, allow_hyphen_values = true)]
     pub kappa_coeff: Option<f64>,
     /// Normalise entropies by log2(|A|). Default on.
     #[arg(long, value_enum)]
@@ -267,13 +288,13 @@ pub struct HumanArgs {
     #[arg(long, value_enum)]
     pub interaction: Option<InteractionArg>,
     /// Interactions the human gives per run before stopping.
-    #[arg(long)]
+    #[arg(long, value_parser = count, allow_negative_numbers = true)]
     pub budget: Option<u32>,
-    /// Bonus weight of a congratulation (or penalty of a punishment). Default 0.1.
-    #[arg(long)]
+    /// Bonus weight of a congratulation (or penalty of a punishment), 0 to 1e12. Default 0.1.
+    #[arg(long, value_parser = number, allow_hyphen_values = true)]
     pub zeta: Option<f64>,
     /// Probability that the human is inattentive at an opportunity, in [0, 1]. Default 0.1.
-    #[arg(long)]
+    #[arg(long, value_parser = number, allow_hyphen_values = true)]
     pub forget: Option<f64>,
 }
 
@@ -297,26 +318,28 @@ pub struct RunArgs {
         default_value = "mf,mb,rnd,ec"
     )]
     pub controller: Vec<ControllerArg>,
-    /// Runs per controller.
-    #[arg(long, default_value_t = 20)]
+    /// Runs per controller, 1 to 1000000.
+    #[arg(long, default_value_t = 20, value_parser = runs_count, allow_negative_numbers = true)]
     pub runs: u32,
     /// Master seed; with the run index it fixes each run's random stream.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = 1, value_parser = seed, allow_negative_numbers = true)]
     pub seed: u64,
     /// Experiment steps after babbling (default: 10,000 for tidy1 and json, 20,000 for tidy2).
-    #[arg(long)]
+    /// 0 runs the babbling only: one row per run with zero reward and cost, and no series rows.
+    #[arg(long, value_parser = count, allow_negative_numbers = true)]
     pub steps: Option<u32>,
     /// Babbling steps before the experiment (reward withheld, no human).
-    #[arg(long, default_value_t = 1000)]
+    #[arg(long, default_value_t = 1000, value_parser = count, allow_negative_numbers = true)]
     pub babbling: u32,
-    /// Write a series row every K experiment steps (and at the last).
-    #[arg(long, default_value_t = 100)]
+    /// Write a series row every K experiment steps (and at the last); 0 writes no series rows.
+    #[arg(long, default_value_t = 100, value_parser = count, allow_negative_numbers = true)]
     pub checkpoint: u32,
-    /// Output folder for runs.parquet and series.parquet.
+    /// Output folder for runs.parquet and series.parquet (created if needed).
     #[arg(long, default_value = "out/run")]
     pub out: PathBuf,
-    /// Runs simulated at once (bounds memory); results do not depend on it.
-    #[arg(long, default_value_t = 4096)]
+    /// Runs simulated at once, >= 1 (lowered if a batch would not fit in memory); results do
+    /// not depend on it.
+    #[arg(long, default_value_t = 4096, value_parser = batch_size, allow_negative_numbers = true)]
     pub batch_size: usize,
     /// No progress bar and no summary table.
     #[arg(long)]
@@ -327,6 +350,63 @@ pub struct RunArgs {
     /// The simulated human.
     #[command(flatten)]
     pub human: HumanArgs,
+}
+
+/// Most runs per controller of one `mbmf run` (every configuration is held in memory).
+pub const MAX_RUNS: u64 = 1_000_000;
+
+/// Most worker threads `--threads` accepts.
+pub const MAX_THREADS: u64 = 4096;
+
+/// Parses a number flag. Ranges are checked by [`Params::validate`], so flags and sweep files
+/// share one set of rules; NaN and infinities parse here and are refused there.
+fn number(text: &str) -> Result<f64, String> {
+    text.trim()
+        .parse::<f64>()
+        .map_err(|_| "expected a number, such as 0.5 or 1e-3".to_string())
+}
+
+/// Parses a whole number in `min..=max`, saying which rule a bad value breaks.
+fn whole(text: &str, min: u64, max: u64) -> Result<u64, String> {
+    let range = if max == u64::MAX {
+        format!("a whole number >= {min}")
+    } else {
+        format!("a whole number from {min} to {max}")
+    };
+    match text.trim().parse::<i128>() {
+        Ok(n) if n < i128::from(min) => Err(format!("{n} is too small: expected {range}")),
+        Ok(n) if n > i128::from(max) => Err(format!("{n} is too large: expected {range}")),
+        Ok(n) => Ok(n as u64),
+        Err(_) if text.trim().parse::<f64>().is_ok() => {
+            Err(format!("not a whole number: expected {range}"))
+        }
+        Err(_) => Err(format!("expected {range}")),
+    }
+}
+
+/// A count of steps, sweeps or interactions: 0 to 2^32 - 1.
+fn count(text: &str) -> Result<u32, String> {
+    whole(text, 0, u64::from(u32::MAX)).map(|n| n as u32)
+}
+
+/// `--runs`: 1 to [`MAX_RUNS`].
+fn runs_count(text: &str) -> Result<u32, String> {
+    whole(text, 1, MAX_RUNS).map(|n| n as u32)
+}
+
+/// `--seed`: any 64-bit unsigned integer.
+fn seed(text: &str) -> Result<u64, String> {
+    whole(text, 0, u64::MAX)
+}
+
+/// `--batch-size`: at least 1.
+fn batch_size(text: &str) -> Result<usize, String> {
+    whole(text, 1, usize::MAX as u64).map(|n| n as usize)
+}
+
+/// `--threads`: 1 to [`MAX_THREADS`].
+fn threads_count(text: &str) -> Result<usize, String> {
+    whole(text, 1, MAX_THREADS).map(|n| n as usize)
 }
 
 impl ModelArgs {
@@ -403,6 +483,12 @@ impl HumanArgs {
 /// Loads the environment named by `task`, with explicit keyStates / spaces paths if given.
 pub fn load_task(task: &str, key_states: Option<&Path>, spaces: Option<&Path>) -> Result<Spec> {
     if let Some(path) = task.strip_prefix("json:") {
+        if path.is_empty() {
+            return Err(anyhow!(
+                "task 'json:' names no file: expected json:PATH, the transition-model file \
+                 (e.g. json:data/navworld/realisticNavWorld.json)"
+            ));
+        }
         let mut paths = env::JsonPaths::beside(path);
         if let Some(k) = key_states {
             paths.key_states = k.to_path_buf();
@@ -413,15 +499,35 @@ pub fn load_task(task: &str, key_states: Option<&Path>, spaces: Option<&Path>) -
         return Ok(env::json::load(&paths, task)?);
     }
     if key_states.is_some() || spaces.is_some() {
+        let flag = if key_states.is_some() {
+            "--key-states"
+        } else {
+            "--spaces"
+        };
         return Err(anyhow!(
-            "--key-states and --spaces only apply to json:PATH tasks, not '{task}'"
+            "{flag} only applies to json:PATH tasks, not '{task}': the built-in tasks have no files"
         ));
     }
     Ok(env::load(task)?)
 }
 
+/// A library configuration error in command-line terms: parameters are named by their flags.
+pub fn explain(error: ConfigError) -> anyhow::Error {
+    match error {
+        ConfigError::InvalidParam {
+            name,
+            value,
+            accepted,
+        } => anyhow!(
+            "invalid value '{value}' for '{}': expected {accepted}",
+            cli_flag(name)
+        ),
+        other => other.into(),
+    }
+}
+
 /// Builds the configurations of `mbmf run`: for each controller, `runs` runs with consecutive
-/// run indices (controller-major).
+/// run indices (controller-major). Every parameter is validated.
 pub fn run_configs(args: &RunArgs) -> Result<Vec<RunConfig>> {
     let mut configs = Vec::new();
     for (ci, &controller) in args.controller.iter().enumerate() {
@@ -436,7 +542,7 @@ pub fn run_configs(args: &RunArgs) -> Result<Vec<RunConfig>> {
             ..Params::default()
         };
         args.model.apply(&mut params);
-        params.validate()?;
+        params.validate().map_err(explain)?;
         for r in 0..args.runs {
             configs.push(RunConfig {
                 params,
@@ -448,11 +554,9 @@ pub fn run_configs(args: &RunArgs) -> Result<Vec<RunConfig>> {
     Ok(configs)
 }
 
-/// `mbmf run`.
+/// `mbmf run`: every input is checked (flags, task files, the output folder, memory) before the
+/// first step is simulated, so a mistake fails in a second rather than after the runs.
 pub fn run(args: &RunArgs) -> Result<(), Failure> {
-    if args.runs == 0 {
-        return Err(usage(anyhow!("--runs must be at least 1")));
-    }
     let spec = load_task(
         &args.task,
         args.key_states.as_deref(),
@@ -461,12 +565,22 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
     .map_err(usage)?;
     let spec = Arc::new(spec);
     let configs = run_configs(args).map_err(usage)?;
-    for c in &configs {
-        crate::batch::validate_for_spec(&spec, &c.params).map_err(usage)?;
+    // Runs of one controller share their parameters: check the first of each.
+    for c in configs.iter().step_by(args.runs.max(1) as usize) {
+        crate::batch::validate_for_spec(&spec, &c.params).map_err(|e| usage(explain(e)))?;
+        c.params
+            .validate_for_reward(spec.goal_reward)
+            .map_err(|e| usage(explain(e)))?;
     }
-    std::fs::create_dir_all(&args.out)
-        .with_context(|| format!("cannot create output folder {}", args.out.display()))
-        .map_err(runtime)?;
+    let batch_size = plan_batch_size(&spec, &configs, args.batch_size).map_err(usage)?;
+    let [runs_target, series_target] = prepare_out(&args.out)?;
+    if batch_size < args.batch_size.min(configs.len()) && !args.quiet {
+        eprintln!(
+            "note: simulating {batch_size} runs at a time instead of {} so that a batch fits in \
+             memory (results do not depend on it)",
+            args.batch_size
+        );
+    }
     let metadata = vec![
         (
             "mbmf_version".to_string(),
@@ -474,16 +588,20 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
         ),
         (
             "mbmf_command".to_string(),
-            std::env::args().collect::<Vec<_>>().join(" "),
+            // Lossy: an argument that is not UTF-8 (a path) must not stop the run.
+            std::env::args_os()
+                .map(|a| a.to_string_lossy().into_owned())
+                .collect::<Vec<_>>()
+                .join(" "),
         ),
         ("master_seed".to_string(), args.seed.to_string()),
     ];
-    let mut runs_sink = output::ParquetSink::new(&args.out.join("runs.parquet"), metadata.clone());
-    let mut series_sink = output::ParquetSink::new(&args.out.join("series.parquet"), metadata);
+    let mut runs_sink = output::ParquetSink::new(&runs_target, metadata.clone());
+    let mut series_sink = output::ParquetSink::new(&series_target, metadata);
     let bar = experiment::progress_bar(experiment::agent_steps(&configs), args.quiet);
     let mut summary = Summary::default();
     let started = std::time::Instant::now();
-    experiment::simulate(&spec, &configs, args.batch_size, &bar, |batch: &Batch| {
+    experiment::simulate(&spec, &configs, batch_size, &bar, |batch: &Batch| {
         runs_sink.write(&output::runs_batch(batch)?)?;
         series_sink.write(&output::series_batch(batch)?)?;
         summary.add(batch);
@@ -494,7 +612,7 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
     let runs_path = runs_sink.finish().map_err(runtime)?;
     let series_path = series_sink.finish().map_err(runtime)?;
     if !args.quiet {
-        summary.print(&args.task, configs.len(), started.elapsed().as_secs_f64());
+        print_stdout(&summary.table(&args.task, configs.len(), started.elapsed().as_secs_f64()))?;
         eprintln!(
             "wrote {} and {}",
             runs_path.display(),
@@ -504,21 +622,178 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
     Ok(())
 }
 
-/// Per-controller totals for the table printed after a run.
+/// Checks and creates the output folder of `mbmf run`; returns the paths of runs.parquet and
+/// series.parquet. A file in the way is a usage error (2); a folder that cannot be created or
+/// written is a runtime failure (1). Both are found before anything is simulated.
+fn prepare_out(out: &Path) -> Result<[PathBuf; 2], Failure> {
+    // The nearest existing ancestor (the folder itself included) must be a folder.
+    for ancestor in out.ancestors().filter(|a| !a.as_os_str().is_empty()) {
+        if let Ok(metadata) = std::fs::metadata(ancestor) {
+            if !metadata.is_dir() {
+                return Err(usage(anyhow!(
+                    "--out {}: {} is a file, not a folder; give a folder to write runs.parquet \
+                     and series.parquet into",
+                    out.display(),
+                    ancestor.display()
+                )));
+            }
+            break;
+        }
+    }
+    std::fs::create_dir_all(out)
+        .with_context(|| format!("cannot create output folder {}", out.display()))
+        .map_err(runtime)?;
+    let targets = [out.join("runs.parquet"), out.join("series.parquet")];
+    for target in &targets {
+        if target.is_dir() {
+            return Err(usage(anyhow!(
+                "--out {}: {} is a folder, so the results cannot be written under that name; \
+                 remove it or choose another --out",
+                out.display(),
+                target.display()
+            )));
+        }
+    }
+    // Fail now, not after the simulation, if the folder refuses new files.
+    let probe = out.join(format!(".mbmf-write-probe-{}", std::process::id()));
+    std::fs::File::create(&probe)
+        .with_context(|| format!("cannot write into output folder {}", out.display()))
+        .map_err(runtime)?;
+    let _ = std::fs::remove_file(&probe);
+    Ok(targets)
+}
+
+/// Estimated bytes of an Arrow/Parquet series row beyond the task name: about 35 numeric
+/// columns, 6 short strings and the writer's buffered encoding.
+const SERIES_ROW_BYTES: u64 = 512;
+
+/// Estimated bytes of a run's row in runs.parquet and its per-run records.
+const RUN_ROW_BYTES: u64 = 2048;
+
+/// Bytes one run of `params` on `spec` holds while its batch is simulated and written: the
+/// per-run tables of [`Batch`] (Q tables, averaged distributions, MB window and model, per-state
+/// costs) and its checkpoint rows, also as Arrow columns. An estimate, accurate to a few percent
+/// where it matters (large worlds, long windows, many checkpoints).
+pub fn bytes_per_run(spec: &Spec, params: &Params) -> u64 {
+    memory_parts(spec, params).iter().map(|&(b, _)| b).sum()
+}
+
+/// The parts of [`bytes_per_run`], each with the flag that shrinks it.
+fn memory_parts(spec: &Spec, params: &Params) -> [(u64, &'static str); 3] {
+    let pairs = (spec.n_states * spec.n_actions) as u64;
+    let states = spec.n_states as u64;
+    let outcomes = spec.outcome_state.len() as u64;
+    // Q (MF, MB) and averaged distributions: 4 x f64; G: u8; window length and position: 2 x u16.
+    let tables = pairs * (4 * 8 + 1 + 2 * 2)
+        + outcomes * (2 + 8)
+        + states * (2 * 8 + 2)
+        + spec.n_actions as u64 * 16
+        + RUN_ROW_BYTES;
+    let window = pairs.saturating_mul(2 * u64::from(params.window_n));
+    let rows = crate::batch::checkpoint_count(params) as u64;
+    let row_bytes = std::mem::size_of::<crate::batch::Checkpoint>() as u64
+        + SERIES_ROW_BYTES
+        + spec.name.len() as u64;
+    [
+        (tables, "the task is too large"),
+        (window, "lower --window-n"),
+        (
+            rows.saturating_mul(row_bytes),
+            "raise --checkpoint or lower --steps",
+        ),
+    ]
+}
+
+/// Memory of this machine: (available now, installed), in bytes, when the system says.
+fn system_memory() -> Option<(u64, u64)> {
+    let info = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let field = |name: &str| {
+        info.lines()
+            .find_map(|l| l.strip_prefix(name))
+            .and_then(|rest| {
+                rest.trim()
+                    .trim_end_matches("kB")
+                    .trim()
+                    .parse::<u64>()
+                    .ok()
+            })
+            .map(|kib| kib.saturating_mul(1024))
+    };
+    Some((field("MemAvailable:")?, field("MemTotal:")?))
+}
+
+/// Memory a batch may use when the system does not say how much there is.
+const DEFAULT_BATCH_BYTES: u64 = 2 << 30;
+
+/// Runs to simulate at once: `requested`, lowered so that a batch fits in half of the memory
+/// available now. A run that alone needs more than the machine's memory is refused, naming the
+/// flag that would shrink it, instead of failing an allocation midway.
+pub fn plan_batch_size(spec: &Spec, configs: &[RunConfig], requested: usize) -> Result<usize> {
+    let Some(largest) = configs
+        .iter()
+        .max_by_key(|c| bytes_per_run(spec, &c.params))
+    else {
+        return Ok(requested.max(1));
+    };
+    let per_run = bytes_per_run(spec, &largest.params).max(1);
+    let (budget, installed) = match system_memory() {
+        Some((available, total)) => (available / 2, total),
+        None => (DEFAULT_BATCH_BYTES, u64::MAX),
+    };
+    if per_run > installed {
+        let parts = memory_parts(spec, &largest.params);
+        let (_, fix) = parts.iter().max_by_key(|&&(b, _)| b).expect("three parts");
+        return Err(anyhow!(
+            "one run needs about {} of memory, more than this machine's {}: {fix} \
+             ({} states x {} actions, window-n {}, {} series rows per run)",
+            gib(per_run),
+            gib(installed),
+            spec.n_states,
+            spec.n_actions,
+            largest.params.window_n,
+            crate::batch::checkpoint_count(&largest.params)
+        ));
+    }
+    let fit = usize::try_from(budget / per_run).unwrap_or(usize::MAX);
+    Ok(requested.min(fit).max(1))
+}
+
+/// A byte count in GiB, for messages.
+fn gib(bytes: u64) -> String {
+    format!("{:.1} GiB", bytes as f64 / f64::from(1u32 << 30))
+}
+
+/// Writes `text` to stdout. A closed pipe (`mbmf ... | head`) is not an error: the reader has
+/// what it wanted.
+fn print_stdout(text: &str) -> Result<(), Failure> {
+    use std::io::Write as _;
+    let mut stdout = std::io::stdout().lock();
+    match stdout
+        .write_all(text.as_bytes())
+        .and_then(|()| stdout.flush())
+    {
+        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => {
+            Err(runtime(anyhow!("cannot write to standard output: {e}")))
+        }
+        _ => Ok(()),
+    }
+}
+
+/// One run in the summary table: total reward, total cost, MB share (if it made decisions).
+type RunSummary = (f64, f64, Option<f64>);
+
+/// Per-controller results for the table printed after a run.
 #[derive(Default)]
 struct Summary {
-    rows: Vec<(Controller, Vec<[f64; 3]>)>,
+    rows: Vec<(Controller, Vec<RunSummary>)>,
 }
 
 impl Summary {
     fn add(&mut self, batch: &Batch) {
         for (config, stats) in batch.configs().iter().zip(batch.stats()) {
             let c = config.params.controller;
-            let share = if stats.decisions > 0 {
-                stats.mb_decisions as f64 / stats.decisions as f64
-            } else {
-                0.0
-            };
+            let share =
+                (stats.decisions > 0).then(|| stats.mb_decisions as f64 / stats.decisions as f64);
             let entry = match self.rows.iter_mut().position(|(k, _)| *k == c) {
                 Some(i) => &mut self.rows[i].1,
                 None => {
@@ -526,96 +801,147 @@ impl Summary {
                     &mut self.rows.last_mut().expect("just pushed").1
                 }
             };
-            entry.push([stats.total_reward, stats.cost_total(), share]);
+            entry.push((stats.total_reward, stats.cost_total(), share));
         }
     }
 
-    fn print(&self, task: &str, runs: usize, seconds: f64) {
-        println!("{task}: {runs} runs in {seconds:.2} s");
-        println!(
+    /// The table: mean ± standard deviation per controller ("-" where no run has a value).
+    fn table(&self, task: &str, runs: usize, seconds: f64) -> String {
+        use std::fmt::Write as _;
+        let mut out = String::new();
+        let _ = writeln!(out, "{task}: {runs} runs in {seconds:.2} s");
+        let _ = writeln!(
+            out,
             "{:<10} {:>5} {:>22} {:>26} {:>18}",
             "controller", "runs", "total reward", "total cost (ops)", "MB share"
         );
         for (controller, values) in &self.rows {
-            let col = |i: usize| mean_sd(&values.iter().map(|v| v[i]).collect::<Vec<_>>());
-            let (r, rs) = col(0);
-            let (c, cs) = col(1);
-            let (m, ms) = col(2);
-            println!(
-                "{:<10} {:>5} {:>12.1} ± {:<7.1} {:>15.4e} ± {:<8.2e} {:>8.3} ± {:<6.3}",
+            let (r, rs) = mean_sd(&values.iter().map(|v| v.0).collect::<Vec<_>>());
+            let (c, cs) = mean_sd(&values.iter().map(|v| v.1).collect::<Vec<_>>());
+            let shares: Vec<f64> = values.iter().filter_map(|v| v.2).collect();
+            let share = if shares.is_empty() {
+                format!("{:>18}", "-")
+            } else {
+                let (m, ms) = mean_sd(&shares);
+                format!("{m:>8.3} ± {ms:<6.3}")
+            };
+            let _ = writeln!(
+                out,
+                "{:<10} {:>5} {:>12.1} ± {:<7.1} {:>15.4e} ± {:<8.2e} {share}",
                 controller.name(),
                 values.len(),
                 r,
                 rs,
                 c,
                 cs,
-                m,
-                ms
             );
         }
+        out
     }
 }
 
-/// Mean and sample standard deviation (0 for fewer than two values).
+/// Mean and sample standard deviation (NaN for no value, 0 for one). Values are scaled by the
+/// largest magnitude first, so huge rewards (1e300) give a finite mean and deviation.
 pub fn mean_sd(xs: &[f64]) -> (f64, f64) {
-    let n = xs.len() as f64;
     if xs.is_empty() {
         return (f64::NAN, f64::NAN);
     }
-    let mean = xs.iter().sum::<f64>() / n;
-    if xs.len() < 2 {
-        return (mean, 0.0);
+    let scale = xs.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    if scale == 0.0 || !scale.is_finite() {
+        let mean = if scale == 0.0 { 0.0 } else { f64::NAN };
+        return (mean, if scale == 0.0 { 0.0 } else { f64::NAN });
     }
-    let var = xs.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0);
-    (mean, var.sqrt())
+    let n = xs.len() as f64;
+    let mean = xs.iter().map(|x| x / scale).sum::<f64>() / n;
+    if xs.len() < 2 {
+        return (mean * scale, 0.0);
+    }
+    let var = xs.iter().map(|x| (x / scale - mean).powi(2)).sum::<f64>() / (n - 1.0);
+    (mean * scale, var.sqrt() * scale)
 }
 
 /// `mbmf env ...`.
 pub fn env_command(cmd: &EnvCommand) -> Result<(), Failure> {
     match cmd {
-        EnvCommand::Info { task } => {
-            let spec = load_task(task, None, None).map_err(usage)?;
-            println!("task      {}", spec.name);
-            println!("states    {}", spec.n_states);
-            println!("actions   {}", spec.n_actions);
-            println!(
-                "outcomes  {} (max {} per state-action pair)",
-                spec.outcome_state.len(),
-                spec.max_branching()
-            );
-            println!("initial   {:?}", spec.initial_states);
-            println!(
-                "goal      {} ({}), reward {}",
-                spec.goal, spec.state_names[spec.goal as usize], spec.goal_reward
-            );
-            println!(
-                "human     {}",
-                if spec.human.is_some() {
-                    "defined"
-                } else {
-                    "not defined (no interactions)"
-                }
-            );
-            for (i, name) in spec.state_names.iter().enumerate().take(5) {
-                println!("  state {i:>4}: {name}");
-            }
-            Ok(())
+        EnvCommand::Info { task, files } => {
+            let spec = load_task(task, files.key_states.as_deref(), files.spaces.as_deref())
+                .map_err(usage)?;
+            print_stdout(&env_info(&spec))
         }
-        EnvCommand::Export { task, json } => {
-            let spec = load_task(task, None, None).map_err(usage)?;
+        EnvCommand::Export { task, json, files } => {
+            if json.exists() && !json.is_dir() {
+                return Err(usage(anyhow!(
+                    "--json {} is a file, not a folder; give a folder to write the model, \
+                     keyStates.txt and spaces.txt into",
+                    json.display()
+                )));
+            }
+            let spec = load_task(task, files.key_states.as_deref(), files.spaces.as_deref())
+                .map_err(usage)?;
             let paths = env::json::export(&spec, json).map_err(runtime)?;
-            println!(
-                "wrote {}, {} and {}",
+            print_stdout(&format!(
+                "wrote {}, {} and {}\n",
                 paths.model.display(),
                 paths.key_states.display(),
                 paths.spaces.display()
-            );
-            Ok(())
+            ))
         }
     }
 }
 
-/// Parses the arguments and runs the verb.
+/// Initial states shown by `mbmf env info` before "...".
+const SHOWN_INITIAL: usize = 10;
+
+/// What `mbmf env info` prints.
+fn env_info(spec: &Spec) -> String {
+    use std::fmt::Write as _;
+    let mut out = String::new();
+    let _ = writeln!(out, "task      {}", spec.name);
+    let _ = writeln!(out, "states    {}", spec.n_states);
+    let _ = writeln!(out, "actions   {}", spec.n_actions);
+    let _ = writeln!(
+        out,
+        "outcomes  {} (max {} per state-action pair)",
+        spec.outcome_state.len(),
+        spec.max_branching()
+    );
+    let initial = &spec.initial_states;
+    let _ = if initial.len() > SHOWN_INITIAL {
+        writeln!(
+            out,
+            "initial   {:?} ... ({} states)",
+            &initial[..SHOWN_INITIAL],
+            initial.len()
+        )
+    } else {
+        writeln!(out, "initial   {initial:?}")
+    };
+    let goal_name = spec
+        .state_names
+        .get(spec.goal as usize)
+        .map_or("?", String::as_str);
+    let _ = writeln!(
+        out,
+        "goal      {} ({goal_name}), reward {}",
+        spec.goal, spec.goal_reward
+    );
+    let _ = writeln!(
+        out,
+        "human     {}",
+        if spec.human.is_some() {
+            "defined"
+        } else {
+            "not defined (no interactions)"
+        }
+    );
+    for (i, name) in spec.state_names.iter().enumerate().take(5) {
+        let _ = writeln!(out, "  state {i:>4}: {name}");
+    }
+    out
+}
+
+/// Parses the arguments and runs the verb. Help and version requests print and exit 0; argument
+/// errors print clap's message (with its suggestion for a typo) and exit 2.
 pub fn main_with_args(args: impl IntoIterator<Item = std::ffi::OsString>) -> Result<(), Failure> {
     let cli = match Cli::try_parse_from(args) {
         Ok(cli) => cli,
@@ -626,9 +952,6 @@ pub fn main_with_args(args: impl IntoIterator<Item = std::ffi::OsString>) -> Res
         }
     };
     if let Some(n) = cli.threads {
-        if n == 0 {
-            return Err(usage(anyhow!("--threads must be at least 1")));
-        }
         rayon::ThreadPoolBuilder::new()
             .num_threads(n)
             .build_global()

@@ -288,8 +288,55 @@ pub fn default_steps(task: &str) -> u32 {
     if task == "tidy2" { 20_000 } else { 10_000 }
 }
 
+/// Largest magnitude an action value or a run's total reward may reach. Inputs that could push
+/// a value beyond it are refused ([`Params::validate_for_reward`]): below it, the differences and
+/// sums the experts compute (softmax shifts, Q-learning targets) stay finite.
+pub const VALUE_LIMIT: f64 = 1e307;
+
+/// Smallest accepted softmax temperature: below about 5.6e-309, `1 / tau` is infinite and the
+/// softmax of the best action would compute `0 * inf`.
+pub const TAU_MIN: f64 = 1e-300;
+
+/// Largest accepted |q_init| and zeta: far beyond any meaningful value, and small enough that a
+/// Q value plus a bonus never loses its finiteness.
+pub const MAGNITUDE_MAX: f64 = 1e12;
+
+/// The command-line flag of a parameter named as in [`ConfigError::InvalidParam`].
+pub fn cli_flag(name: &str) -> String {
+    match name {
+        "forget_prob" => "--forget".to_string(),
+        _ => format!("--{}", name.replace('_', "-")),
+    }
+}
+
+/// A number as error messages write it: plain for ordinary magnitudes, with an exponent for
+/// very large or very small ones (`1e300`, not three hundred digits).
+pub fn show(x: f64) -> String {
+    if x == 0.0 || !x.is_finite() || (1e-6..1e16).contains(&x.abs()) {
+        format!("{x}")
+    } else {
+        format!("{x:e}")
+    }
+}
+
+/// A bound as error messages write it: three significant digits, or "infinity".
+fn approx(x: f64) -> String {
+    if !x.is_finite() {
+        return "infinity".to_string();
+    }
+    let text = format!("{x:.2e}");
+    match text.split_once('e') {
+        Some((mantissa, exponent)) if mantissa.contains('.') => {
+            let mantissa = mantissa.trim_end_matches('0').trim_end_matches('.');
+            format!("{mantissa}e{exponent}")
+        }
+        _ => text,
+    }
+}
+
 impl Params {
-    /// Checks every scalar against its accepted range (names as on the command line).
+    /// Checks every scalar against its accepted range. Errors name the parameter as its field
+    /// (and output column); [`cli_flag`] gives the flag. NaN and infinities are always refused.
     pub fn validate(&self) -> Result<(), ConfigError> {
         fn check(
             name: &'static str,
@@ -302,7 +349,7 @@ impl Params {
             } else {
                 Err(ConfigError::InvalidParam {
                     name,
-                    value: value.to_string(),
+                    value: show(value),
                     accepted,
                 })
             }
@@ -310,79 +357,280 @@ impl Params {
         let unit_open = |x: f64| x > 0.0 && x <= 1.0;
         let unit_closed = |x: f64| (0.0..=1.0).contains(&x);
         check(
-            "alpha-mf",
+            "alpha_mf",
             self.alpha_mf,
             unit_open(self.alpha_mf),
-            "a learning rate in (0, 1]",
+            "a learning rate in (0, 1] (default 0.6)",
         )?;
         check(
-            "gamma-mf",
+            "gamma_mf",
             self.gamma_mf,
-            unit_closed(self.gamma_mf) && self.gamma_mf < 1.0,
-            "a discount in [0, 1)",
+            (0.0..1.0).contains(&self.gamma_mf),
+            "a discount in [0, 1) (default 0.9)",
         )?;
         check(
-            "gamma-mb",
+            "gamma_mb",
             self.gamma_mb,
-            unit_closed(self.gamma_mb) && self.gamma_mb < 1.0,
-            "a discount in [0, 1)",
+            (0.0..1.0).contains(&self.gamma_mb),
+            "a discount in [0, 1) (default 0.95)",
         )?;
         check(
             "tau",
             self.tau,
-            self.tau > 0.0,
-            "a temperature > 0 (e.g. 0.02)",
+            self.tau >= TAU_MIN,
+            "a temperature > 0, at least 1e-300 (default 0.02)",
         )?;
         check(
-            "q-init",
+            "q_init",
             self.q_init,
-            self.q_init.abs() <= 1e12,
-            "a finite number with |q_init| <= 1e12",
+            self.q_init.abs() <= MAGNITUDE_MAX,
+            "a number from -1e12 to 1e12 (default 0)",
         )?;
         check(
-            "vi-epsilon",
+            "vi_epsilon",
             self.vi_epsilon,
             self.vi_epsilon > 0.0,
-            "a tolerance > 0 (e.g. 0.01)",
+            "a tolerance > 0 (default 0.01)",
         )?;
         check(
-            "filter-alpha",
+            "filter_alpha",
             self.filter_alpha,
             unit_open(self.filter_alpha),
-            "a weight in (0, 1]",
+            "a weight in (0, 1] (default 0.6)",
         )?;
         check(
-            "kappa-coeff",
+            "kappa_coeff",
             self.kappa_coeff,
             self.kappa_coeff >= 0.0,
-            "a number >= 0 (e.g. 9)",
+            "a number >= 0 (default 9)",
         )?;
         check(
-            "forget",
+            "forget_prob",
             self.human.forget_prob,
             unit_closed(self.human.forget_prob),
-            "a probability in [0, 1]",
+            "a probability in [0, 1] (default 0.1)",
         )?;
         check(
             "zeta",
             self.human.zeta,
-            self.human.zeta.abs() <= 1e12,
-            "a finite bonus weight (e.g. 0.1)",
+            (0.0..=MAGNITUDE_MAX).contains(&self.human.zeta),
+            "a bonus weight from 0 to 1e12 (default 0.1; punishment subtracts it)",
         )?;
         if self.window_n == 0 || self.window_n > u32::from(u16::MAX) {
             return Err(ConfigError::InvalidParam {
-                name: "window-n",
+                name: "window_n",
                 value: self.window_n.to_string(),
                 accepted: "a window of 1 to 65535 executions (default 10)",
             });
         }
         if self.vi_max_sweeps == 0 {
             return Err(ConfigError::InvalidParam {
-                name: "vi-max-sweeps",
+                name: "vi_max_sweeps",
                 value: "0".into(),
-                accepted: "at least 1 sweep",
+                accepted: "at least 1 sweep per inference (default 10000)",
             });
         }
         Ok(())
+    }
+
+    /// Checks that, with an environment whose goal gives `goal_reward`, no value the run computes
+    /// can exceed [`VALUE_LIMIT`]: action values stay within max(|q_init|, |r| / (1 - gamma)) for
+    /// each discount in use, and the total reward within |r| x steps. Call after [`validate`].
+    ///
+    /// [`validate`]: Params::validate
+    pub fn validate_for_reward(&self, goal_reward: f64) -> Result<(), ConfigError> {
+        let reward = goal_reward.abs();
+        let discounts = [
+            ("gamma_mf", self.gamma_mf, self.controller.runs_mf()),
+            ("gamma_mb", self.gamma_mb, self.controller.runs_mb()),
+        ];
+        for (name, gamma, used) in discounts {
+            let bound = reward / (1.0 - gamma);
+            if used && (bound.is_nan() || bound > VALUE_LIMIT) {
+                return Err(ConfigError::ValueOverflow {
+                    what: "action values",
+                    reached: approx(bound),
+                    because: format!(
+                        "goal reward {} and {name} = {} (|reward| / (1 - {name}))",
+                        show(goal_reward),
+                        show(gamma)
+                    ),
+                    fix: "scale the goal reward down (only its ratio to q_init and zeta \
+                          matters) or lower the discount",
+                });
+            }
+        }
+        let total = reward * f64::from(self.steps);
+        if total.is_nan() || total > VALUE_LIMIT {
+            return Err(ConfigError::ValueOverflow {
+                what: "the total reward of a run",
+                reached: approx(total),
+                because: format!(
+                    "goal reward {} over {} steps",
+                    show(goal_reward),
+                    self.steps
+                ),
+                fix: "scale the goal reward down or run fewer steps",
+            });
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn invalid(p: Params) -> (&'static str, String) {
+        match p.validate() {
+            Err(ConfigError::InvalidParam { name, value, .. }) => (name, value),
+            other => panic!("expected an invalid parameter, got {other:?}"),
+        }
+    }
+
+    #[test]
+    fn the_paper_defaults_are_valid_with_the_tidy_reward() {
+        let p = Params::default();
+        assert_eq!(p.validate(), Ok(()));
+        assert_eq!(p.validate_for_reward(1.0), Ok(()));
+    }
+
+    #[test]
+    fn each_out_of_range_value_is_named_with_its_value() {
+        let d = Params::default();
+        let cases = [
+            (Params { tau: 0.0, ..d }, "tau", "0"),
+            (Params { tau: 1e-310, ..d }, "tau", "1e-310"),
+            (
+                Params {
+                    alpha_mf: f64::NAN,
+                    ..d
+                },
+                "alpha_mf",
+                "NaN",
+            ),
+            (Params { gamma_mb: 1.0, ..d }, "gamma_mb", "1"),
+            (Params { q_init: 1e300, ..d }, "q_init", "1e300"),
+            (
+                Params {
+                    filter_alpha: 0.0,
+                    ..d
+                },
+                "filter_alpha",
+                "0",
+            ),
+            (
+                Params {
+                    kappa_coeff: f64::INFINITY,
+                    ..d
+                },
+                "kappa_coeff",
+                "inf",
+            ),
+            (
+                Params {
+                    vi_epsilon: -1.0,
+                    ..d
+                },
+                "vi_epsilon",
+                "-1",
+            ),
+            (Params { window_n: 0, ..d }, "window_n", "0"),
+            (
+                Params {
+                    vi_max_sweeps: 0,
+                    ..d
+                },
+                "vi_max_sweeps",
+                "0",
+            ),
+        ];
+        for (p, name, value) in cases {
+            assert_eq!(invalid(p), (name, value.to_string()));
+        }
+        let human = HumanParams {
+            forget_prob: 1.5,
+            ..HumanParams::default()
+        };
+        assert_eq!(
+            invalid(Params { human, ..d }),
+            ("forget_prob", "1.5".into())
+        );
+        let human = HumanParams {
+            zeta: -0.1,
+            ..HumanParams::default()
+        };
+        assert_eq!(invalid(Params { human, ..d }), ("zeta", "-0.1".into()));
+    }
+
+    #[test]
+    fn boundary_values_are_accepted() {
+        let d = Params::default();
+        for p in [
+            Params { tau: TAU_MIN, ..d },
+            Params {
+                alpha_mf: 1.0,
+                gamma_mf: 0.0,
+                filter_alpha: 1.0,
+                ..d
+            },
+            Params {
+                q_init: -MAGNITUDE_MAX,
+                kappa_coeff: 0.0,
+                window_n: 65535,
+                ..d
+            },
+        ] {
+            assert_eq!(p.validate(), Ok(()), "{p:?}");
+        }
+    }
+
+    #[test]
+    fn flags_are_the_names_with_dashes_except_forget() {
+        assert_eq!(cli_flag("alpha_mf"), "--alpha-mf");
+        assert_eq!(cli_flag("forget_prob"), "--forget");
+        assert_eq!(cli_flag("tau"), "--tau");
+    }
+
+    #[test]
+    fn numbers_in_messages_are_short() {
+        assert_eq!(show(1e300), "1e300");
+        assert_eq!(show(0.02), "0.02");
+        assert_eq!(show(-3.0), "-3");
+        assert_eq!(show(f64::NAN), "NaN");
+        assert_eq!(approx(1.9999999999999982e307), "2e307");
+        assert_eq!(approx(f64::INFINITY), "infinity");
+        assert_eq!(approx(1.25e5), "1.25e5");
+    }
+
+    #[test]
+    fn a_reward_is_refused_when_values_or_totals_could_pass_the_limit() {
+        // |r| / (1 - gamma_mb) = 2e307 with the default 0.95.
+        let p = Params {
+            controller: Controller::Mb,
+            ..Params::default()
+        };
+        assert!(matches!(
+            p.validate_for_reward(1e306),
+            Err(ConfigError::ValueOverflow {
+                what: "action values",
+                ..
+            })
+        ));
+        // MF alone does not use gamma_mb: 1e306 / 0.5 is fine, but not over 10,000 steps.
+        let p = Params {
+            controller: Controller::Mf,
+            gamma_mf: 0.5,
+            ..Params::default()
+        };
+        assert!(matches!(
+            p.validate_for_reward(1e306),
+            Err(ConfigError::ValueOverflow {
+                what: "the total reward of a run",
+                ..
+            })
+        ));
+        assert_eq!(Params { steps: 5, ..p }.validate_for_reward(1e306), Ok(()));
+        assert_eq!(Params::default().validate_for_reward(-1e300), Ok(()));
     }
 }

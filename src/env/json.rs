@@ -24,6 +24,9 @@ pub const MAX_OUTCOMES_PER_PAIR: usize = u16::MAX as usize;
 /// `spaces.txt` from asking for terabytes.
 pub const MAX_PAIRS: usize = 1 << 24;
 
+/// Largest file the loader reads (each file is read whole, and the model is parsed into memory).
+pub const MAX_FILE_BYTES: u64 = 1 << 30;
+
 /// The keywords of `keyStates.txt`.
 const KEY_STATES_KEYWORDS: &str = "init, goal, new_goal, del_trans";
 /// The keywords of `spaces.txt`.
@@ -41,6 +44,24 @@ pub enum EnvFileError {
         path: PathBuf,
         /// What the system said.
         error: io::Error,
+    },
+    /// A path names a folder, a device or a pipe instead of a regular file.
+    #[error("{path} is {found}, not a file; {expected}", path = .path.display())]
+    NotAFile {
+        /// The path.
+        path: PathBuf,
+        /// What it is (`a folder`, `not a regular file`).
+        found: &'static str,
+        /// What the path should name.
+        expected: &'static str,
+    },
+    /// A file is larger than [`MAX_FILE_BYTES`].
+    #[error("{path} is {size} bytes, more than the {max} bytes mbmf reads (environment files are read whole)", path = .path.display(), max = MAX_FILE_BYTES)]
+    FileTooLarge {
+        /// The file.
+        path: PathBuf,
+        /// Its size.
+        size: u64,
     },
     /// A file or folder could not be written by [`export`].
     #[error("cannot write {path}: {error}", path = .path.display())]
@@ -339,6 +360,9 @@ pub enum EnvFileError {
 ///
 /// State names are `s{id}`; `human` is `None` (interactions are not defined for these worlds).
 pub fn load(paths: &JsonPaths, name: &str) -> Result<Spec, EnvFileError> {
+    // The model first: a mistyped model path is then reported as such, not as a missing
+    // spaces.txt in whatever folder it names.
+    check_file(&paths.model, MODEL_EXPECTED)?;
     let (n_states, n_actions) = read_spaces(&paths.spaces)?;
     let keys = read_key_states(&paths.key_states, n_states)?;
     let outcomes = read_model(&paths.model, n_states, n_actions)?;
@@ -356,8 +380,43 @@ pub fn load(paths: &JsonPaths, name: &str) -> Result<Spec, EnvFileError> {
     ))
 }
 
+/// What a `json:` model path should name.
+const MODEL_EXPECTED: &str = "json:PATH names the transition-model file itself (e.g. \
+     json:data/navworld/realisticNavWorld.json), with keyStates.txt and spaces.txt beside it";
+
+/// What a `keyStates.txt` or `spaces.txt` path should name.
+const TEXT_EXPECTED: &str = "expected a text file";
+
+/// Checks that `path` is a regular file of at most [`MAX_FILE_BYTES`], so reading it can neither
+/// block (a pipe), run forever (`/dev/zero`) nor exhaust memory.
+fn check_file(path: &Path, expected: &'static str) -> Result<(), EnvFileError> {
+    let metadata = fs::metadata(path).map_err(|error| EnvFileError::Read {
+        path: path.to_path_buf(),
+        error,
+    })?;
+    let not_a_file = |found| EnvFileError::NotAFile {
+        path: path.to_path_buf(),
+        found,
+        expected,
+    };
+    if metadata.is_dir() {
+        return Err(not_a_file("a folder"));
+    }
+    if !metadata.is_file() {
+        return Err(not_a_file("a device, pipe or socket"));
+    }
+    if metadata.len() > MAX_FILE_BYTES {
+        return Err(EnvFileError::FileTooLarge {
+            path: path.to_path_buf(),
+            size: metadata.len(),
+        });
+    }
+    Ok(())
+}
+
 /// Reads a whole text file, without a leading byte-order mark.
-fn read_text(path: &Path) -> Result<String, EnvFileError> {
+fn read_text(path: &Path, expected: &'static str) -> Result<String, EnvFileError> {
+    check_file(path, expected)?;
     let text = fs::read_to_string(path).map_err(|error| EnvFileError::Read {
         path: path.to_path_buf(),
         error,
@@ -406,7 +465,7 @@ fn closest(word: &str, known: &[&'static str]) -> &'static str {
 
 /// Reads `spaces.txt`: `(number of states, number of actions)`.
 fn read_spaces(path: &Path) -> Result<(usize, usize), EnvFileError> {
-    let text = read_text(path)?;
+    let text = read_text(path, TEXT_EXPECTED)?;
     let mut states: Option<(usize, usize)> = None;
     let mut actions: Option<(usize, usize)> = None;
     for (line, words) in content_lines(&text) {
@@ -501,7 +560,7 @@ struct KeyStates {
 
 /// Reads `keyStates.txt`, checking its states against the state space.
 fn read_key_states(path: &Path, n_states: usize) -> Result<KeyStates, EnvFileError> {
-    let text = read_text(path)?;
+    let text = read_text(path, TEXT_EXPECTED)?;
     let mut initial: Option<(Vec<StateId>, usize)> = None;
     let mut goal: Option<(StateId, f64, usize)> = None;
     for (line, words) in content_lines(&text) {
@@ -545,9 +604,11 @@ fn read_key_states(path: &Path, n_states: usize) -> Result<KeyStates, EnvFileErr
                 });
             }
             let mut states: Vec<StateId> = Vec::with_capacity(values.len());
+            // A flag per state, not a search of the list: a long 'init' line stays linear.
+            let mut seen = vec![false; n_states];
             for text in values {
                 let state = parse_key_state(path, line, "initial", text, n_states)?;
-                if states.contains(&state) {
+                if std::mem::replace(&mut seen[state as usize], true) {
                     return Err(EnvFileError::DuplicateInitial {
                         path: path.to_path_buf(),
                         line,
@@ -723,7 +784,7 @@ fn read_model(
     n_states: usize,
     n_actions: usize,
 ) -> Result<Vec<Vec<(StateId, f64)>>, EnvFileError> {
-    let text = read_text(path)?;
+    let text = read_text(path, MODEL_EXPECTED)?;
     let root: Value = serde_json::from_str(&text).map_err(|error| EnvFileError::JsonSyntax {
         path: path.to_path_buf(),
         error,
@@ -1008,7 +1069,9 @@ fn check_exportable(spec: &Spec) -> Result<(), String> {
     if let Some(&s) = initial.iter().find(|&&s| s as usize >= n_states) {
         return Err(format!("initial state {s} is not below {n_states}"));
     }
-    if (1..initial.len()).any(|i| initial[..i].contains(&initial[i])) {
+    let mut sorted = initial.clone();
+    sorted.sort_unstable();
+    if sorted.windows(2).any(|w| w[0] == w[1]) {
         return Err("an initial state is listed twice".to_string());
     }
     if spec.goal as usize >= n_states || initial.contains(&spec.goal) {
@@ -1363,6 +1426,60 @@ mod tests {
             assert_mentions(&error, &["cannot read", &missing.display().to_string()]);
             fs::rename(missing.with_extension("gone"), missing).expect("restore the file");
         }
+    }
+
+    #[test]
+    fn a_missing_model_is_reported_before_its_neighbours() {
+        let dir = TempDir::new("no-model");
+        let paths = JsonPaths::beside(dir.0.join("world.json"));
+        let error = load(&paths, "test").expect_err("nothing to load");
+        assert_mentions(&error, &["cannot read", "world.json"]);
+    }
+
+    #[test]
+    fn a_folder_or_a_device_as_model_is_rejected_with_what_to_give() {
+        let dir = TempDir::new("folder-model");
+        let error = load(&JsonPaths::beside(&dir.0), "test").expect_err("a folder");
+        assert!(matches!(error, EnvFileError::NotAFile { .. }), "{error}");
+        assert_mentions(
+            &error,
+            &["is a folder, not a file", "transition-model file"],
+        );
+        #[cfg(unix)]
+        {
+            let error = load(&JsonPaths::beside("/dev/zero"), "test").expect_err("a device");
+            assert_mentions(
+                &error,
+                &["/dev/zero is a device, pipe or socket, not a file"],
+            );
+        }
+    }
+
+    #[test]
+    fn a_long_init_line_is_checked_for_repeats_in_linear_time() {
+        // 200,000 distinct initial states: a quadratic check would take minutes.
+        let n = 200_001;
+        let init: Vec<String> = (1..n).map(|s| s.to_string()).collect();
+        let world = world(
+            r#"{"transitionActions": []}"#,
+            &format!("init {}\ngoal 0 1\n", init.join(" ")),
+            &format!("state {n}\naction 1\n"),
+        );
+        let spec = load(&world.paths, "test").expect("a valid world");
+        assert_eq!(spec.initial_states.len(), n - 1);
+        let world = world_with_init_repeat(n);
+        let error = load(&world.paths, "test").expect_err("a repeat");
+        assert_mentions(&error, &["initial state 5 is listed twice"]);
+    }
+
+    fn world_with_init_repeat(n: usize) -> World {
+        let mut init: Vec<String> = (1..n).map(|s| s.to_string()).collect();
+        init.push("5".into());
+        world(
+            r#"{"transitionActions": []}"#,
+            &format!("init {}\ngoal 0 1\n", init.join(" ")),
+            &format!("state {n}\naction 1\n"),
+        )
     }
 
     #[test]

@@ -1,0 +1,584 @@
+//! Bad command lines and bad environment files (issue 7, part 1), through the built binary: each
+//! gives its exit code (2 for usage errors, 1 for runtime failures), a message naming the flag,
+//! key or file position, the bad value and what is accepted, and never a panic or a backtrace.
+
+use std::path::Path;
+
+use assert_cmd::Command;
+use tempfile::TempDir;
+
+/// Files the table refers to, in a temporary folder: `{dir}` is the folder itself.
+struct Fixtures {
+    dir: TempDir,
+}
+
+const GOOD_MODEL: &str = r#"{"transitionActions": [
+    {"state": 0, "transitions": [{"action": 0, "state": 1, "prob": 1}]},
+    {"state": 1, "transitions": [{"action": 0, "state": 2, "prob": 1}]}]}"#;
+
+impl Fixtures {
+    fn new() -> Fixtures {
+        let fixtures = Fixtures {
+            dir: TempDir::new().expect("a temporary folder"),
+        };
+        fixtures.world(
+            "good",
+            GOOD_MODEL,
+            "init 0\ngoal 2 1\n",
+            "state 3\naction 1\n",
+        );
+        fixtures.world(
+            "garbled",
+            r#"{"transitionActions": [{"state": 0, "transitions": [}]}"#,
+            "init 0\ngoal 2 1\n",
+            "state 3\naction 1\n",
+        );
+        fixtures.world(
+            "typo",
+            GOOD_MODEL,
+            "init 0\ngaol 2 1\n",
+            "state 3\naction 1\n",
+        );
+        fixtures.world(
+            "nostates",
+            GOOD_MODEL,
+            "init 0\ngoal 2 1\n",
+            "state 0\naction 1\n",
+        );
+        fixtures.world(
+            "badprob",
+            &GOOD_MODEL.replace("\"prob\": 1}]},\n", "\"prob\": -2}]},\n"),
+            "init 0\ngoal 2 1\n",
+            "state 3\naction 1\n",
+        );
+        fixtures.world(
+            "badaction",
+            &GOOD_MODEL.replace("\"action\": 0, \"state\": 2", "\"action\": 4, \"state\": 2"),
+            "init 0\ngoal 2 1\n",
+            "state 3\naction 1\n",
+        );
+        fixtures.world(
+            "goalinit",
+            GOOD_MODEL,
+            "init 0 2\ngoal 2 1\n",
+            "state 3\naction 1\n",
+        );
+        fixtures.world(
+            "nanreward",
+            GOOD_MODEL,
+            "init 0\ngoal 2 nan\n",
+            "state 3\naction 1\n",
+        );
+        fixtures.world(
+            "hugereward",
+            GOOD_MODEL,
+            "init 0\ngoal 2 1e306\n",
+            "state 3\naction 1\n",
+        );
+        std::fs::write(fixtures.path("a_file"), "not a folder").expect("write a file");
+        std::fs::create_dir_all(fixtures.path("taken/runs.parquet")).expect("a folder");
+        fixtures
+    }
+
+    fn world(&self, name: &str, model: &str, key_states: &str, spaces: &str) {
+        let dir = self.path(name);
+        std::fs::create_dir_all(&dir).expect("a world folder");
+        std::fs::write(dir.join("world.json"), model).expect("write the model");
+        std::fs::write(dir.join("keyStates.txt"), key_states).expect("write keyStates.txt");
+        std::fs::write(dir.join("spaces.txt"), spaces).expect("write spaces.txt");
+    }
+
+    fn path(&self, name: &str) -> std::path::PathBuf {
+        self.dir.path().join(name)
+    }
+
+    /// `line` with `{dir}` replaced, split on spaces.
+    fn args(&self, line: &str) -> Vec<String> {
+        let dir = self.dir.path().display().to_string();
+        line.split_whitespace()
+            .map(|a| a.replace("{dir}", &dir))
+            .collect()
+    }
+}
+
+/// Runs the binary with `args` (and a default --out inside the fixtures, so nothing is written
+/// elsewhere); returns (exit code, stderr).
+fn mbmf(fixtures: &Fixtures, args: &[String]) -> (Option<i32>, String) {
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_mbmf"));
+    cmd.args(args).env("RUST_BACKTRACE", "1");
+    if args.first().map(String::as_str) == Some("run") && !args.iter().any(|a| a == "--out") {
+        cmd.arg("--out").arg(fixtures.path("out"));
+    }
+    let output = cmd.output().expect("the binary runs");
+    (
+        output.status.code(),
+        String::from_utf8_lossy(&output.stderr).into_owned(),
+    )
+}
+
+/// Asserts one row of a table: exit code, every expected part of the message, no panic.
+fn check(fixtures: &Fixtures, line: &str, code: i32, parts: &[&str]) {
+    let args = fixtures.args(line);
+    let (actual, stderr) = mbmf(fixtures, &args);
+    let dir = fixtures.dir.path().display().to_string();
+    assert!(
+        !stderr.contains("panicked") && !stderr.contains("stack backtrace"),
+        "mbmf {line}: panicked:\n{stderr}"
+    );
+    assert_eq!(
+        actual,
+        Some(code),
+        "mbmf {line}: exit code; stderr:\n{stderr}"
+    );
+    for part in parts {
+        let part = part.replace("{dir}", &dir);
+        assert!(
+            stderr.contains(&part),
+            "mbmf {line}: stderr lacks {part:?}:\n{stderr}"
+        );
+    }
+}
+
+/// Usage errors: (arguments, parts the message must contain). Every row exits with code 2.
+const USAGE_ERRORS: &[(&str, &[&str])] = &[
+    // Verbs and flags: clap names the word and suggests the closest one.
+    ("rn", &["unrecognized subcommand 'rn'"]),
+    (
+        "rum",
+        &[
+            "unrecognized subcommand 'rum'",
+            "a similar subcommand exists: 'run'",
+        ],
+    ),
+    ("swep x.toml", &["a similar subcommand exists: 'sweep'"]),
+    (
+        "run --contoller ec",
+        &[
+            "unexpected argument '--contoller'",
+            "a similar argument exists: '--controller'",
+        ],
+    ),
+    (
+        "run --kappa-coef 3",
+        &["unexpected argument '--kappa-coef'", "'--kappa-coeff'"],
+    ),
+    (
+        "env infos tidy1",
+        &["unrecognized subcommand 'infos'", "'info'"],
+    ),
+    // Names: the accepted values, and the closest one.
+    (
+        "run --controller ecc",
+        &[
+            "invalid value 'ecc' for '--controller",
+            "[possible values: mf, mb, rnd, ec, entropy]",
+            "a similar value exists: 'ec'",
+        ],
+    ),
+    (
+        "run --controller mf,mbb",
+        &["invalid value 'mbb'", "a similar value exists: 'mb'"],
+    ),
+    (
+        "run --interaction takover",
+        &[
+            "invalid value 'takover'",
+            "a similar value exists: 'takeover'",
+        ],
+    ),
+    (
+        "run --profile genrous",
+        &[
+            "invalid value 'genrous'",
+            "a similar value exists: 'generous'",
+        ],
+    ),
+    (
+        "run --selection arg-max",
+        &[
+            "invalid value 'arg-max' for '--selection",
+            "possible values: softmax, argmax",
+        ],
+    ),
+    (
+        "run --cost-model time",
+        &[
+            "invalid value 'time' for '--cost-model",
+            "possible values: ops, wallclock",
+        ],
+    ),
+    (
+        "run --normalise-entropy yes",
+        &["invalid value 'yes'", "possible values: on, off"],
+    ),
+    (
+        "run --task tidy3",
+        &[
+            "unknown task 'tidy3'",
+            "did you mean 'tidy1'?",
+            "expected tidy1, tidy2 or json:PATH",
+        ],
+    ),
+    (
+        "run --task {dir}/good/world.json",
+        &["did you mean 'json:{dir}/good/world.json'?"],
+    ),
+    (
+        "env info tidy0",
+        &["unknown task 'tidy0'", "did you mean 'tidy1'?"],
+    ),
+    // Numbers: the flag, the bad value and the accepted range.
+    (
+        "run --tau 0",
+        &["invalid value '0' for '--tau': expected a temperature > 0"],
+    ),
+    ("run --tau -0.5", &["invalid value '-0.5' for '--tau'"]),
+    ("run --tau nan", &["invalid value 'NaN' for '--tau'"]),
+    ("run --tau inf", &["invalid value 'inf' for '--tau'"]),
+    (
+        "run --tau 1e-320",
+        &["invalid value '1e-320' for '--tau'", "at least 1e-300"],
+    ),
+    (
+        "run --tau abc",
+        &["invalid value 'abc' for '--tau <TAU>'", "expected a number"],
+    ),
+    (
+        "run --forget 1.5",
+        &["invalid value '1.5' for '--forget': expected a probability in [0, 1]"],
+    ),
+    (
+        "run --forget -0.1",
+        &["invalid value '-0.1' for '--forget'"],
+    ),
+    (
+        "run --alpha-mf 0",
+        &["invalid value '0' for '--alpha-mf': expected a learning rate in (0, 1]"],
+    ),
+    (
+        "run --alpha-mf 1.5",
+        &["invalid value '1.5' for '--alpha-mf'"],
+    ),
+    (
+        "run --gamma-mf 1",
+        &["invalid value '1' for '--gamma-mf': expected a discount in [0, 1)"],
+    ),
+    (
+        "run --gamma-mb -0.1",
+        &["invalid value '-0.1' for '--gamma-mb'"],
+    ),
+    (
+        "run --filter-alpha 0",
+        &["invalid value '0' for '--filter-alpha': expected a weight in (0, 1]"],
+    ),
+    (
+        "run --kappa-coeff -1",
+        &["invalid value '-1' for '--kappa-coeff': expected a number >= 0"],
+    ),
+    (
+        "run --kappa-coeff inf",
+        &["invalid value 'inf' for '--kappa-coeff'"],
+    ),
+    (
+        "run --vi-epsilon 0",
+        &["invalid value '0' for '--vi-epsilon': expected a tolerance > 0"],
+    ),
+    (
+        "run --vi-max-sweeps 0",
+        &["invalid value '0' for '--vi-max-sweeps': expected at least 1 sweep"],
+    ),
+    (
+        "run --window-n 0",
+        &["invalid value '0' for '--window-n': expected a window of 1 to 65535"],
+    ),
+    (
+        "run --window-n 70000",
+        &["invalid value '70000' for '--window-n'"],
+    ),
+    (
+        "run --q-init 1e300",
+        &["invalid value '1e300' for '--q-init': expected a number from -1e12 to 1e12"],
+    ),
+    (
+        "run --q-init -inf",
+        &["invalid value '-inf' for '--q-init'"],
+    ),
+    (
+        "run --zeta -0.1",
+        &["invalid value '-0.1' for '--zeta': expected a bonus weight from 0 to 1e12"],
+    ),
+    ("run --zeta nan", &["invalid value 'NaN' for '--zeta'"]),
+    (
+        "run --runs 0",
+        &[
+            "invalid value '0' for '--runs <RUNS>'",
+            "expected a whole number from 1 to 1000000",
+        ],
+    ),
+    (
+        "run --runs -3",
+        &["invalid value '-3' for '--runs <RUNS>'", "too small"],
+    ),
+    (
+        "run --runs 2.5",
+        &[
+            "invalid value '2.5' for '--runs <RUNS>'",
+            "not a whole number",
+        ],
+    ),
+    (
+        "run --runs 5000000",
+        &["'5000000' for '--runs <RUNS>'", "too large"],
+    ),
+    (
+        "--threads 0 run",
+        &[
+            "invalid value '0' for '--threads <THREADS>'",
+            "from 1 to 4096",
+        ],
+    ),
+    (
+        "run --threads 0",
+        &["invalid value '0' for '--threads <THREADS>'"],
+    ),
+    (
+        "run --batch-size 0",
+        &[
+            "invalid value '0' for '--batch-size <BATCH_SIZE>'",
+            "a whole number >= 1",
+        ],
+    ),
+    (
+        "run --steps -1",
+        &[
+            "invalid value '-1' for '--steps <STEPS>'",
+            "from 0 to 4294967295",
+        ],
+    ),
+    (
+        "run --checkpoint 1e3",
+        &[
+            "invalid value '1e3' for '--checkpoint <CHECKPOINT>'",
+            "not a whole number",
+        ],
+    ),
+    (
+        "run --budget -5",
+        &["invalid value '-5' for '--budget <BUDGET>'"],
+    ),
+    (
+        "run --seed abc",
+        &[
+            "invalid value 'abc' for '--seed <SEED>'",
+            "a whole number >= 0",
+        ],
+    ),
+    // Combinations.
+    (
+        "run --task json:{dir}/good/world.json --interaction takeover --budget 5",
+        &[
+            "interaction 'takeover' is not defined for task 'json:{dir}/good/world.json'",
+            "use --interaction none",
+        ],
+    ),
+    (
+        "run --task json:{dir}/good/world.json --profile generous",
+        &["interaction 'congratulation' is not defined"],
+    ),
+    (
+        "run --key-states {dir}/good/keyStates.txt",
+        &["--key-states only applies to json:PATH tasks, not 'tidy1'"],
+    ),
+    (
+        "run --task tidy2 --spaces {dir}/good/spaces.txt",
+        &["--spaces only applies to json:PATH tasks, not 'tidy2'"],
+    ),
+    (
+        "env info tidy1 --spaces {dir}/good/spaces.txt",
+        &["--spaces only applies to json:PATH tasks"],
+    ),
+    (
+        "run --task json:{dir}/hugereward/world.json --controller mb",
+        &[
+            "action values could reach 2e307",
+            "goal reward 1e306",
+            "scale the goal reward down",
+        ],
+    ),
+    (
+        "run --steps 4000000000 --checkpoint 1 --runs 1",
+        &["one run needs about", "raise --checkpoint or lower --steps"],
+    ),
+    // Environment files: the file, the position, the bad value and what is accepted.
+    ("run --task json:", &["task 'json:' names no file"]),
+    (
+        "run --task json:{dir}/missing.json",
+        &["cannot read {dir}/missing.json"],
+    ),
+    (
+        "run --task json:{dir}/good",
+        &[
+            "{dir}/good is a folder, not a file",
+            "json:PATH names the transition-model file itself",
+        ],
+    ),
+    ("env info json:{dir}", &["is a folder, not a file"]),
+    (
+        "run --task json:/dev/zero",
+        &["/dev/zero is a device, pipe or socket, not a file"],
+    ),
+    (
+        "run --task json:{dir}/garbled/world.json",
+        &["{dir}/garbled/world.json: invalid JSON", "line 1 column"],
+    ),
+    (
+        "run --task json:{dir}/typo/world.json",
+        &["{dir}/typo/keyStates.txt, line 2: unknown keyword 'gaol' (did you mean 'goal'?"],
+    ),
+    (
+        "run --task json:{dir}/nostates/world.json",
+        &["{dir}/nostates/spaces.txt, line 1: 'state 0': an environment needs at least one state"],
+    ),
+    (
+        "run --task json:{dir}/badprob/world.json",
+        &["state 0, action 0, next state 1: count -2 is not a positive finite number"],
+    ),
+    (
+        "run --task json:{dir}/badaction/world.json",
+        &[
+            "state 1, transitions[0]: action 4 is outside the action space: spaces.txt declares 1 actions",
+        ],
+    ),
+    (
+        "run --task json:{dir}/goalinit/world.json",
+        &["goal state 2 is also an initial state"],
+    ),
+    (
+        "run --task json:{dir}/nanreward/world.json",
+        &["line 2: goal reward 'nan' is not finite"],
+    ),
+    (
+        "run --task json:{dir}/good/world.json --key-states {dir}/nope.txt",
+        &["cannot read {dir}/nope.txt"],
+    ),
+    // The output folder: a file in the way is a usage error, found before anything runs.
+    (
+        "run --out {dir}/a_file",
+        &["--out {dir}/a_file: {dir}/a_file is a file, not a folder"],
+    ),
+    (
+        "run --out {dir}/a_file/sub",
+        &["{dir}/a_file is a file, not a folder"],
+    ),
+    (
+        "run --out {dir}/taken --runs 1 --steps 1",
+        &["{dir}/taken/runs.parquet is a folder"],
+    ),
+    (
+        "env export tidy1 --json {dir}/a_file",
+        &["--json {dir}/a_file is a file, not a folder"],
+    ),
+];
+
+#[test]
+fn every_bad_input_exits_with_code_2_and_a_message_naming_it() {
+    assert!(USAGE_ERRORS.len() >= 40);
+    let fixtures = Fixtures::new();
+    for (line, parts) in USAGE_ERRORS {
+        check(&fixtures, line, 2, parts);
+    }
+    assert!(
+        !fixtures.path("out").exists(),
+        "a refused command wrote its output folder"
+    );
+}
+
+#[test]
+fn an_unwritable_output_folder_is_a_runtime_failure_with_code_1() {
+    // /sys refuses new entries even to root; elsewhere there is no portable unwritable folder.
+    if !Path::new("/sys/kernel").is_dir() {
+        return;
+    }
+    let fixtures = Fixtures::new();
+    check(
+        &fixtures,
+        "run --out /sys/mbmf-test-out --runs 1 --steps 1",
+        1,
+        &["cannot create output folder /sys/mbmf-test-out"],
+    );
+    check(
+        &fixtures,
+        "env export tidy1 --json /sys/mbmf-test-out",
+        1,
+        &["cannot write /sys/mbmf-test-out"],
+    );
+}
+
+#[test]
+fn help_and_version_exit_with_code_0() {
+    for line in ["--help", "run --help", "env info --help", "--version"] {
+        let output = Command::new(env!("CARGO_BIN_EXE_mbmf"))
+            .args(line.split_whitespace())
+            .output()
+            .expect("the binary runs");
+        assert_eq!(output.status.code(), Some(0), "mbmf {line}");
+        assert!(!output.stdout.is_empty());
+    }
+}
+
+#[test]
+fn run_help_documents_what_zero_steps_and_zero_checkpoint_do() {
+    let output = Command::new(env!("CARGO_BIN_EXE_mbmf"))
+        .args(["run", "--help"])
+        .output()
+        .expect("the binary runs");
+    let help = String::from_utf8_lossy(&output.stdout);
+    assert!(help.contains("0 runs the babbling only"), "{help}");
+    assert!(help.contains("0 writes no series rows"), "{help}");
+}
+
+#[cfg(unix)]
+#[test]
+fn an_output_path_that_is_not_utf8_does_not_panic() {
+    use std::ffi::OsStr;
+    use std::os::unix::ffi::OsStrExt;
+    let dir = TempDir::new().expect("a temporary folder");
+    let out = dir.path().join(OsStr::from_bytes(b"out-\xff"));
+    let output = Command::new(env!("CARGO_BIN_EXE_mbmf"))
+        .args([
+            "run",
+            "--quiet",
+            "--runs",
+            "1",
+            "--steps",
+            "10",
+            "--babbling",
+            "5",
+            "--out",
+        ])
+        .arg(&out)
+        .output()
+        .expect("the binary runs");
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    assert!(out.join("runs.parquet").is_file());
+}
+
+#[test]
+fn a_closed_standard_output_ends_env_info_quietly() {
+    // `mbmf env info tidy1 | head -c 1`: the reader leaves early; no panic, no error.
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_mbmf"))
+        .args(["env", "info", "tidy1"])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("the binary runs");
+    drop(child.stdout.take());
+    let output = child.wait_with_output().expect("it ends");
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert_eq!(output.status.code(), Some(0), "{stderr}");
+}
