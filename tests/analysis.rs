@@ -832,3 +832,45 @@ fn errors_name_the_input_and_what_would_be_accepted() {
         "{e}"
     );
 }
+
+#[test]
+fn the_verbs_read_a_dataset_written_by_mbmf_sweep() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("budgets.toml");
+    std::fs::write(
+        &file,
+        "seeds = 3\n[fixed]\ntask = \"tidy1\"\nsteps = 200\nbabbling = 50\n\
+         interaction = \"takeover\"\n[grid]\ncontroller = [\"mf\", \"ec\"]\nbudget = [0, 5]\n",
+    )
+    .unwrap();
+    let out = dir.path().join("sweep");
+    run_ok(&[
+        "sweep",
+        file.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let d = out.to_str().unwrap();
+
+    let stdout = run_ok(&["pareto", d, "--no-plot"]);
+    assert!(stdout.contains("12 runs in 4 configurations"), "{stdout}");
+    let table = dataset::read_parquet_file(&out.join("pareto.parquet")).unwrap();
+    assert!(
+        !table.has("config_index_mean") && !table.has("seed_index_mean"),
+        "the sweep's identity columns are neither keys nor metrics: {:?}",
+        table.names()
+    );
+
+    let stdout = run_ok(&["min-budget", d]);
+    let starts = |l: &str| {
+        l.split_whitespace()
+            .take(4)
+            .eq(["tidy1", "ec", "takeover", "0,5"])
+    };
+    assert!(stdout.lines().any(starts), "{stdout}");
+    let table = dataset::read_parquet_file(&out.join("min_budget.parquet")).unwrap();
+    assert_eq!(floats(&table, "n"), [Some(3.0); 4]);
+
+    let stdout = run_ok(&["stats", d, "--by", "budget", "--where", "controller=mf"]);
+    assert!(stdout.contains("Holm-corrected over 1 pair)"), "{stdout}");
+}
