@@ -304,8 +304,10 @@ pub fn command(args: &ReproduceArgs) -> Result<(), Failure> {
     let scale = Scale::new(args);
     let outcomes = simulate_all(args, &scale).map_err(runtime)?;
     let seconds = started.elapsed().as_secs_f64();
+    let min_budgets = min_budgets(&args.out.join("data")).map_err(runtime)?;
     let report = Report {
         outcomes: &outcomes,
+        min_budgets: &min_budgets,
         scale: &scale,
         args,
         seconds,
@@ -402,6 +404,48 @@ fn simulate_all(args: &ReproduceArgs, scale: &Scale) -> Result<Vec<Outcome>> {
     Ok(outcomes)
 }
 
+/// Claim 6's data: the SPEC 9 minimal budget of every task-1 controller and interaction type
+/// (softmax MC), by `mbmf min-budget`'s own rule on the runs just written.
+fn min_budgets(data: &Path) -> Result<Vec<MinBudgetRow>> {
+    use crate::analysis::dataset::{Value, read_dataset};
+    use crate::analysis::min_budget::{DEFAULT_ALPHA, min_budget};
+    let table = read_dataset(data, "runs")?;
+    let found = min_budget(&table, "total_reward", DEFAULT_ALPHA)?;
+    let text = |g: usize, name: &str| match found.key_value(g, name) {
+        Some(Value::Str(s)) => s.clone(),
+        _ => String::new(),
+    };
+    let mut rows = Vec::new();
+    for interaction in [Interaction::Congratulation, Interaction::Takeover] {
+        for &c in &CONTROLLERS {
+            let name = if interaction == Interaction::Takeover {
+                "takeover"
+            } else {
+                "congratulation"
+            };
+            let group = (0..found.groups.len()).find(|&g| {
+                text(g, "task") == "tidy1"
+                    && text(g, "controller") == c.name()
+                    && text(g, "interaction") == name
+                    && text(g, "selection") == "softmax"
+            });
+            rows.push(match group {
+                Some(g) => {
+                    let group = &found.groups[g];
+                    (
+                        c,
+                        interaction,
+                        Some(group.chosen_budget() as u32),
+                        group.not_monotone.is_empty(),
+                    )
+                }
+                None => (c, interaction, None, true),
+            });
+        }
+    }
+    Ok(rows)
+}
+
 /// Significance marks of a p-value.
 fn stars(p: f64) -> &'static str {
     if p < 0.001 {
@@ -449,8 +493,12 @@ fn mean_sd_sci(xs: &[f64]) -> String {
     )
 }
 
+/// The minimal budget found for (controller, interaction), and whether the rule was monotone.
+type MinBudgetRow = (Controller, Interaction, Option<u32>, bool);
+
 struct Report<'a> {
     outcomes: &'a [Outcome],
+    min_budgets: &'a [MinBudgetRow],
     scale: &'a Scale,
     args: &'a ReproduceArgs,
     seconds: f64,
@@ -504,11 +552,8 @@ impl Report<'_> {
                 for &c in &CONTROLLERS {
                     out.push(self.get(task, c, interaction));
                 }
-                if task == "tidy1" {
-                    if let Some(o) = self.find(task, Controller::Ec, interaction, Selection::Argmax)
-                    {
-                        out.push(o);
-                    }
+                if let Some(o) = self.find(task, Controller::Ec, interaction, Selection::Argmax) {
+                    out.push(o);
                 }
             }
         }
@@ -788,38 +833,21 @@ impl Report<'_> {
     fn claim_min_budget(&self) -> Claim {
         let mut ev = String::new();
         let mut matches = Vec::new();
-        for interaction in [Interaction::Congratulation, Interaction::Takeover] {
-            for &c in &CONTROLLERS {
-                let mut by_budget: Vec<(u32, Vec<f64>)> =
-                    vec![(0, self.get("tidy1", c, Interaction::None).reward())];
-                for o in self.outcomes.iter().filter(|o| {
-                    o.condition.task == "tidy1"
-                        && o.condition.controller == c
-                        && o.condition.interaction == interaction
-                        && o.condition.selection == Selection::Softmax
-                }) {
-                    by_budget.push((o.condition.budget, o.reward()));
-                }
-                let found = minimal_budget(&mut by_budget);
-                let paper = paper_budget(c, interaction);
-                matches.push(found.budget == paper);
-                let _ = write!(
-                    ev,
-                    "{} {}: {} (paper {}){}. ",
-                    c.name().to_uppercase(),
-                    match interaction {
-                        Interaction::Takeover => "takeover",
-                        _ => "congratulation",
-                    },
-                    found.budget,
-                    paper,
-                    if found.monotone {
-                        ""
-                    } else {
-                        ", rule not monotone"
-                    }
-                );
-            }
+        for &(c, interaction, found, monotone) in self.min_budgets {
+            let paper = paper_budget(c, interaction);
+            matches.push(found == Some(paper));
+            let _ = write!(
+                ev,
+                "{} {}: {} (paper {}){}. ",
+                c.name().to_uppercase(),
+                match interaction {
+                    Interaction::Takeover => "takeover",
+                    _ => "congratulation",
+                },
+                found.map_or("none found".to_string(), |b| b.to_string()),
+                paper,
+                if monotone { "" } else { ", rule not monotone" }
+            );
         }
         let budgets = if self.scale.budgets.is_empty() {
             "only the paper's budgets and 0 (quick mode: this is no test)".to_string()
@@ -1096,31 +1124,6 @@ impl Report<'_> {
             );
         }
         Ok(out)
-    }
-}
-
-/// The SPEC 9 minimal budget over `(budget, total rewards)` levels.
-struct Minimal {
-    budget: u32,
-    /// No budget above the chosen one is itself beaten by a larger one.
-    monotone: bool,
-}
-
-fn minimal_budget(levels: &mut [(u32, Vec<f64>)]) -> Minimal {
-    levels.sort_by_key(|l| l.0);
-    let beaten = |i: usize| {
-        let mean_i = stats::mean(&levels[i].1);
-        levels[i + 1..]
-            .iter()
-            .any(|(_, v)| stats::mean(v) > mean_i && p_greater(v, &levels[i].1) < 0.05)
-    };
-    let chosen = (0..levels.len())
-        .find(|&i| !beaten(i))
-        .unwrap_or(levels.len() - 1);
-    let monotone = (chosen + 1..levels.len()).all(|i| !beaten(i));
-    Minimal {
-        budget: levels[chosen].0,
-        monotone,
     }
 }
 
