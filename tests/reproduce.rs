@@ -62,8 +62,8 @@ fn quick_reproduction_writes_data_figures_and_a_verdict_for_every_claim() {
         figures += 1;
     }
     assert_eq!(
-        figures, 14,
-        "figures 3 and 5 (curves and bars), 4, and the two budget scans"
+        figures, 15,
+        "per task: 2 curves and 4 bar charts; figure 4; two budget scans"
     );
 
     // The data behind it: 4 runs per condition.
