@@ -574,6 +574,7 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
     }
     let batch_size = plan_batch_size(&spec, &configs, args.batch_size).map_err(usage)?;
     let [runs_target, series_target] = prepare_out(&args.out)?;
+    let staging = Staging::create(&args.out)?;
     if batch_size < args.batch_size.min(configs.len()) && !args.quiet {
         eprintln!(
             "note: simulating {batch_size} runs at a time instead of {} so that a batch fits in \
@@ -596,8 +597,8 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
         ),
         ("master_seed".to_string(), args.seed.to_string()),
     ];
-    let mut runs_sink = output::ParquetSink::new(&runs_target, metadata.clone());
-    let mut series_sink = output::ParquetSink::new(&series_target, metadata);
+    let mut runs_sink = output::ParquetSink::new(&staging.0.join("runs.parquet"), metadata.clone());
+    let mut series_sink = output::ParquetSink::new(&staging.0.join("series.parquet"), metadata);
     let bar = experiment::progress_bar(experiment::agent_steps(&configs), args.quiet);
     let mut summary = Summary::default();
     let started = std::time::Instant::now();
@@ -609,8 +610,10 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
     })
     .map_err(runtime)?;
     bar.finish_and_clear();
-    let runs_path = runs_sink.finish().map_err(runtime)?;
-    let series_path = series_sink.finish().map_err(runtime)?;
+    let runs_staged = runs_sink.finish().map_err(runtime)?;
+    let series_staged = series_sink.finish().map_err(runtime)?;
+    staging.commit(&[(runs_staged, &runs_target), (series_staged, &series_target)])?;
+    let (runs_path, series_path) = (runs_target, series_target);
     if !args.quiet {
         print_stdout(&summary.table(&args.task, configs.len(), started.elapsed().as_secs_f64()))?;
         eprintln!(
@@ -623,8 +626,8 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
 }
 
 /// Checks and creates the output folder of `mbmf run`; returns the paths of runs.parquet and
-/// series.parquet. A file in the way is a usage error (2); a folder that cannot be created or
-/// written is a runtime failure (1). Both are found before anything is simulated.
+/// series.parquet. A file in the way is a usage error (2); a folder that cannot be created is a
+/// runtime failure (1). Both are found before anything is simulated.
 fn prepare_out(out: &Path) -> Result<[PathBuf; 2], Failure> {
     // The nearest existing ancestor (the folder itself included) must be a folder.
     for ancestor in out.ancestors().filter(|a| !a.as_os_str().is_empty()) {
@@ -654,13 +657,48 @@ fn prepare_out(out: &Path) -> Result<[PathBuf; 2], Failure> {
             )));
         }
     }
-    // Fail now, not after the simulation, if the folder refuses new files.
-    let probe = out.join(format!(".mbmf-write-probe-{}", std::process::id()));
-    std::fs::File::create(&probe)
-        .with_context(|| format!("cannot write into output folder {}", out.display()))
-        .map_err(runtime)?;
-    let _ = std::fs::remove_file(&probe);
     Ok(targets)
+}
+
+/// A private folder inside the output folder where both Parquet files are written; they are
+/// moved into place only when both are complete, so a failure (a full disk, a kill) never
+/// leaves a runs.parquet without its series.parquet, nor a partial file under either name. The
+/// folder and anything left in it are removed when the value is dropped.
+struct Staging(PathBuf);
+
+impl Staging {
+    /// Creates the folder; this is also the check that the output folder accepts new files,
+    /// done before anything is simulated.
+    fn create(out: &Path) -> Result<Staging, Failure> {
+        let dir = out.join(format!(".mbmf-run-{}", std::process::id()));
+        std::fs::create_dir_all(&dir)
+            .with_context(|| format!("cannot write into output folder {}", out.display()))
+            .map_err(runtime)?;
+        Ok(Staging(dir))
+    }
+
+    /// Moves each finished file to its target. If a move fails, the targets already moved are
+    /// removed too, so no mismatched pair stays behind.
+    fn commit(self, files: &[(PathBuf, &PathBuf)]) -> Result<(), Failure> {
+        for (i, (from, to)) in files.iter().enumerate() {
+            if let Err(e) = std::fs::rename(from, to) {
+                for (_, moved) in &files[..i] {
+                    let _ = std::fs::remove_file(moved);
+                }
+                return Err(runtime(
+                    anyhow!(e).context(format!("cannot move the results to {}", to.display())),
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
+impl Drop for Staging {
+    fn drop(&mut self) {
+        // Best effort: after a commit only the empty folder is left.
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
 }
 
 /// Estimated bytes of an Arrow/Parquet series row beyond the task name: about 35 numeric

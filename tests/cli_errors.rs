@@ -582,3 +582,61 @@ fn a_closed_standard_output_ends_env_info_quietly() {
     assert!(!stderr.contains("panicked"), "{stderr}");
     assert_eq!(output.status.code(), Some(0), "{stderr}");
 }
+
+/// A small tmpfs mounted for one test (root only), unmounted on drop.
+struct Tmpfs(TempDir);
+
+impl Tmpfs {
+    fn mount(size: &str) -> Option<Tmpfs> {
+        let dir = TempDir::new().expect("a temporary folder");
+        let status = std::process::Command::new("mount")
+            .args(["-t", "tmpfs", "-o", &format!("size={size}"), "tmpfs"])
+            .arg(dir.path())
+            .stderr(std::process::Stdio::null())
+            .status()
+            .ok()?;
+        status.success().then_some(Tmpfs(dir))
+    }
+}
+
+impl Drop for Tmpfs {
+    fn drop(&mut self) {
+        let _ = std::process::Command::new("umount")
+            .arg(self.0.path())
+            .status();
+    }
+}
+
+#[test]
+fn a_full_disk_fails_with_code_1_and_leaves_neither_result_file() {
+    let Some(disk) = Tmpfs::mount("64k") else {
+        eprintln!("SKIP: mounting a 64 KiB tmpfs needs root (CAP_SYS_ADMIN)");
+        return;
+    };
+    let out = disk.0.path().join("out");
+    // About 100 KiB of series rows: runs.parquet fits, series.parquet does not.
+    let output = Command::new(env!("CARGO_BIN_EXE_mbmf"))
+        .args([
+            "run",
+            "--quiet",
+            "--runs",
+            "200",
+            "--steps",
+            "2000",
+            "--babbling",
+            "10",
+        ])
+        .args(["--checkpoint", "10", "--out"])
+        .arg(&out)
+        .output()
+        .expect("the binary runs");
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("No space left on device"), "{stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    let left: Vec<_> = std::fs::read_dir(&out)
+        .expect("the output folder was created")
+        .map(|e| e.expect("an entry").file_name())
+        .collect();
+    assert!(left.is_empty(), "left behind: {left:?}");
+}

@@ -245,10 +245,11 @@ fn a_goal_reward_of_1e300_gives_finite_rewards_values_and_costs() {
         ]);
         let totals = out.runs_f64("total_reward");
         assert_eq!(totals.len(), 10);
-        // The corridor is short: every run reaches the goal, many times.
+        // The corridor is short: every run reaches the goal (once at least: a negative reward
+        // teaches the experts to avoid it).
         for total in totals {
             let total = total.expect("a total reward");
-            assert!(total / reward >= 2.0, "total reward {total}");
+            assert!(total / reward >= 1.0, "total reward {total:e}");
         }
         assert!(out.series.iter().map(|b| b.num_rows()).sum::<usize>() > 0);
     }
