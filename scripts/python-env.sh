@@ -18,11 +18,13 @@ VENV_DIR="${1:-$REPO_ROOT/.venv}"
 PYTHON="${PYTHON:-python3}"
 
 # Pins known to install as binary wheels on CPython 3.11 / x86_64 here.
+# polars >= 1.43 is needed for files written by parquet-rs >= 60, which declares the IEEE 754
+# total order for float columns (PARQUET-2249); older polars fails with "Invalid thrift: bad data".
 REQUIREMENTS=(
   "numpy==2.3.5"
   "pandas==2.3.3"
   "pyarrow==22.0.0"
-  "polars==1.35.2"
+  "polars==1.44.2"
 )
 
 log() { echo "python-env: $*" >&2; }

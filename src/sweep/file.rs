@@ -28,12 +28,13 @@ const MAX_AXIS_VALUES: u64 = 1_000_000;
 #[derive(Debug, thiserror::Error)]
 pub enum SweepError {
     /// The file could not be read.
-    #[error("cannot read sweep file {file}: {source}")]
+    // NOTE: the cause is a plain field, not `source`, so `{:#}` prints it once.
+    #[error("cannot read sweep file {file}: {cause}")]
     Read {
         /// The file.
         file: String,
         /// The cause.
-        source: std::io::Error,
+        cause: std::io::Error,
     },
     /// A problem at a place in the file.
     #[error("{file}:{line}: {message}")]
@@ -168,7 +169,7 @@ fn kind_name(kind: Kind) -> String {
         Kind::Count => "a whole number from 0 to 4294967295".into(),
         Kind::Switch => "true or false".into(),
         Kind::Choice(names) => format!("one of {}", names.join(", ")),
-        Kind::Task => "tidy1, tidy2 or \"json:PATH\"".into(),
+        Kind::Task => "a task name (tidy1, tidy2, json:PATH, ...)".into(),
         Kind::Profile => format!(
             "a profile name ({} or one defined in [profiles.NAME])",
             builtin_profile_names().join(", ")
@@ -349,21 +350,16 @@ impl Parser<'_> {
             }
             (Kind::Task, DeValue::String(s)) => {
                 let s = s.trim();
-                if s == "tidy1"
-                    || s == "tidy2"
-                    || s.strip_prefix("json:").is_some_and(|p| !p.is_empty())
-                {
-                    Value::Text(s.to_string())
-                } else {
-                    return Err(bad(
-                        self,
-                        format!(
-                            "unknown task '{s}'; {}accepted values: tidy1, tidy2, json:PATH (the \
-                             authors' transition-model file, PATH relative to the sweep file)",
-                            suggestion(s, &["tidy1", "tidy2"])
-                        ),
-                    ));
+                // json: files are loaded (relative to the sweep file) once parsing is done; any
+                // other name is checked by building it now, with the environment's own message.
+                if let Some(path) = s.strip_prefix("json:") {
+                    if path.is_empty() {
+                        return Err(bad(self, "'json:' needs a path: json:PATH".into()));
+                    }
+                } else if let Err(e) = env::load(s) {
+                    return Err(bad(self, e.to_string()));
                 }
+                Value::Text(s.to_string())
             }
             (Kind::Profile, DeValue::String(s)) => {
                 let name = s.trim().to_ascii_lowercase().replace('_', "-");
@@ -648,9 +644,9 @@ impl Sweep {
     /// Reads and parses the sweep file at `path`.
     pub fn load(path: &Path) -> Result<Sweep, SweepError> {
         let file = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|source| SweepError::Read {
+        let text = std::fs::read_to_string(path).map_err(|cause| SweepError::Read {
             file: file.clone(),
-            source,
+            cause,
         })?;
         let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
         Sweep::parse(&file, &dir, &text)

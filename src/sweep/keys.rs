@@ -107,7 +107,7 @@ pub const KEYS: [KeyInfo; N_KEYS] = [
         "task",
         &[],
         Kind::Task,
-        "tidy1, tidy2 or json:PATH (PATH relative to the sweep file)",
+        "tidy1, tidy2, json:PATH (PATH relative to the sweep file), or any task of mbmf run",
     ),
     info(
         Key::Controller,

@@ -175,14 +175,15 @@ pub fn command(args: &SweepArgs) -> Result<(), Failure> {
     if args.dry_run {
         println!("{}", describe_plan(&sweep, shard));
         let e = runner::estimate(&sweep, &specs, shard).map_err(usage)?;
+        let time = if e.seconds < 1.0 {
+            "under a second".to_string()
+        } else {
+            format!("about {}", runner::human_duration(e.seconds))
+        };
         println!(
-            "  agent-steps: {} (babbling included)\nestimated time: about {} with {} thread(s) \
+            "  agent-steps: {} (babbling included)\nestimated time: {time} with {} thread(s) \
              (timed on {} sample run(s) in {:.1} s)",
-            e.agent_steps,
-            runner::human_duration(e.seconds),
-            e.threads,
-            e.samples,
-            e.calibration_seconds
+            e.agent_steps, e.threads, e.samples, e.calibration_seconds
         );
         return Ok(());
     }

@@ -358,38 +358,54 @@ pub fn estimate(sweep: &Sweep, specs: &[Arc<Spec>], shard: Shard) -> Result<Esti
         task: usize,
         controller: crate::params::Controller,
         agent_steps: u64,
+        configs: u64,
         samples: Vec<u64>,
     }
+    /// Sample runs per group, spread evenly over the group's configurations.
+    const SAMPLES: u64 = 4;
     let mut groups: Vec<Group> = Vec::new();
     let seeds = u64::from(sweep.seeds);
+    let group_of = |groups: &[Group], r: &super::file::Resolved| {
+        groups
+            .iter()
+            .position(|g| g.task == r.task && g.controller == r.params.controller)
+    };
     for config in shard.configs(sweep.configurations()) {
         let r = sweep.resolve(config);
         let steps = seeds * (u64::from(r.params.babbling) + u64::from(r.params.steps));
-        match groups
-            .iter_mut()
-            .find(|g| g.task == r.task && g.controller == r.params.controller)
-        {
+        match group_of(&groups, &r) {
             Some(g) => {
-                g.agent_steps += steps;
-                // Keep the first and the latest configuration seen: two ends of the group.
-                if g.samples.len() < 2 {
-                    g.samples.push(config);
-                } else {
-                    g.samples[1] = config;
-                }
+                groups[g].agent_steps += steps;
+                groups[g].configs += 1;
             }
             None => groups.push(Group {
                 task: r.task,
                 controller: r.params.controller,
                 agent_steps: steps,
-                samples: vec![config],
+                configs: 1,
+                samples: Vec::new(),
             }),
         }
+    }
+    // Second pass: the k-th of SAMPLES evenly spaced positions within each group.
+    let mut seen = vec![0u64; groups.len()];
+    for config in shard.configs(sweep.configurations()) {
+        let r = sweep.resolve(config);
+        let Some(g) = group_of(&groups, &r) else {
+            continue;
+        };
+        let n = groups[g].configs;
+        let k = SAMPLES.min(n);
+        let next = groups[g].samples.len() as u64;
+        if next < k && seen[g] == (next * (n - 1)).checked_div(k - 1).unwrap_or(0) {
+            groups[g].samples.push(config);
+        }
+        seen[g] += 1;
     }
     let started = Instant::now();
     let mut rates: Vec<Vec<f64>> = groups.iter().map(|_| Vec::new()).collect();
     let mut samples = 0;
-    for task in 0..sweep.tasks.len() {
+    for (task, spec) in specs.iter().enumerate() {
         let mut configs = Vec::new();
         let mut owners = Vec::new();
         for (gi, g) in groups.iter().enumerate().filter(|(_, g)| g.task == task) {
@@ -409,7 +425,7 @@ pub fn estimate(sweep: &Sweep, specs: &[Arc<Spec>], shard: Shard) -> Result<Esti
             continue;
         }
         samples += configs.len();
-        let mut batch = Batch::new(Arc::clone(&specs[task]), configs)?;
+        let mut batch = Batch::new(Arc::clone(spec), configs)?;
         batch.run_to_end();
         for ((config, stats), gi) in batch.configs().iter().zip(batch.stats()).zip(owners) {
             let steps = u64::from(config.params.babbling) + u64::from(config.params.steps);
@@ -438,7 +454,7 @@ pub fn estimate(sweep: &Sweep, specs: &[Arc<Spec>], shard: Shard) -> Result<Esti
 pub fn human_duration(seconds: f64) -> String {
     let s = seconds.max(0.0).round() as u64;
     match s {
-        0..=59 => format!("{:.0} s", seconds.max(0.0).ceil().max(1.0)),
+        0..=59 => format!("{} s", s.max(1)),
         60..=3599 => format!("{} min {:02} s", s / 60, s % 60),
         _ => format!("{} h {:02} min", s / 3600, (s % 3600) / 60),
     }

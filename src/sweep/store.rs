@@ -38,14 +38,15 @@ pub const SERIES_DIR: &str = "series";
 #[derive(Debug, thiserror::Error)]
 pub enum StoreError {
     /// The file system refused.
-    #[error("cannot {action} {path}: {source}")]
+    // NOTE: the cause is a plain field, not `source`, so `{:#}` prints it once.
+    #[error("cannot {action} {path}: {cause}")]
     Io {
         /// What was being done ("create", "write", "read", ...).
         action: &'static str,
         /// The file or folder.
         path: PathBuf,
         /// The cause.
-        source: std::io::Error,
+        cause: std::io::Error,
     },
     /// Another live process holds this shard's lock.
     #[error(
@@ -137,10 +138,10 @@ impl StoreError {
 }
 
 fn io<'a>(action: &'static str, path: &'a Path) -> impl FnOnce(std::io::Error) -> StoreError + 'a {
-    move |source| StoreError::Io {
+    move |cause| StoreError::Io {
         action,
         path: path.to_path_buf(),
-        source,
+        cause,
     }
 }
 

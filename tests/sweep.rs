@@ -1,0 +1,706 @@
+//! `mbmf sweep`: expansion of sweep files, validation messages, dry run, the Parquet dataset
+//! (equal to `mbmf run` for the same runs, to a resumed run, and to the union of shards), the
+//! lock, and failures of the output folder (unwritable, full disk).
+
+mod sweep_support;
+
+use std::path::Path;
+
+use mbmf::params::{Controller, Interaction, Profile};
+use mbmf::sweep::keys::Value;
+use mbmf::sweep::{Shard, Sweep};
+use sweep_support::*;
+
+fn parse(text: &str) -> Sweep {
+    Sweep::parse("test.toml", Path::new("."), text).unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn parse_err(text: &str) -> String {
+    match Sweep::parse("bad.toml", Path::new("."), text) {
+        Ok(_) => panic!("accepted:\n{text}"),
+        Err(e) => e.to_string(),
+    }
+}
+
+fn reals(sweep: &Sweep, axis: usize) -> Vec<f64> {
+    sweep.axes[axis]
+        .values
+        .iter()
+        .map(|row| row[0].as_f64().unwrap())
+        .collect()
+}
+
+#[test]
+fn a_linear_range_gives_steps_values_with_exact_ends() {
+    let s = parse("[grid]\nkappa_coeff = { from = 0, to = 20, steps = 41 }\n");
+    let v = reals(&s, 0);
+    assert_eq!(v.len(), 41);
+    assert_eq!((v[0], v[1], v[40]), (0.0, 0.5, 20.0));
+    assert_eq!(s.configurations(), 41);
+    assert_eq!(s.runs(), 41);
+    let tenths = parse("[grid]\nzeta = { from = 0, to = 1, steps = 11 }\n");
+    assert_eq!(
+        reals(&tenths, 0)[3],
+        0.3,
+        "i / (n - 1) scaling, not repeated addition"
+    );
+}
+
+#[test]
+fn a_log_range_is_geometric_and_rounds_for_whole_number_keys() {
+    let s = parse("[grid]\nzeta = { from = 0.01, to = 100, steps = 5, log = true }\n");
+    let v = reals(&s, 0);
+    let expected = [0.01, 0.1, 1.0, 10.0, 100.0];
+    for (a, b) in v.iter().zip(expected) {
+        assert!((a - b).abs() < 1e-12 * b, "{v:?}");
+    }
+    let budgets = parse("[grid]\nbudget = { from = 10, to = 1000, steps = 5, log = true }\n");
+    let b: Vec<Value> = budgets.axes[0]
+        .values
+        .iter()
+        .map(|r| r[0].clone())
+        .collect();
+    assert_eq!(
+        b,
+        [10, 32, 100, 316, 1000].map(Value::Count).to_vec(),
+        "10^(1 + k/2) rounded"
+    );
+}
+
+#[test]
+fn a_range_by_increment_includes_its_end() {
+    let s = parse("[grid]\nbudget = { from = 0, to = 500, by = 50 }\n");
+    assert_eq!(s.configurations(), 11);
+    assert_eq!(s.axes[0].values[10][0], Value::Count(500));
+}
+
+#[test]
+fn grid_axes_multiply_zip_groups_vary_together_and_seeds_multiply_runs() {
+    let s = parse(
+        r#"
+seeds = 4
+[grid]
+controller = ["mf", "mb", "ec"]
+kappa_coeff = [1, 9]
+[[zip]]
+interaction = ["none", "congratulation", "takeover"]
+budget = [0, 30, 50]
+"#,
+    );
+    assert_eq!(s.configurations(), 3 * 2 * 3);
+    assert_eq!(s.runs(), 3 * 2 * 3 * 4);
+    // The first axis in the file varies slowest, the last fastest.
+    let r = s.resolve(0);
+    assert_eq!(r.params.controller, Controller::Mf);
+    assert_eq!(r.params.human.interaction, Interaction::None);
+    let r = s.resolve(5);
+    assert_eq!(r.params.controller, Controller::Mf);
+    assert_eq!(r.params.kappa_coeff, 9.0);
+    assert_eq!(
+        (r.params.human.interaction, r.params.human.budget),
+        (Interaction::Takeover, 50)
+    );
+    let r = s.resolve(6);
+    assert_eq!(r.params.controller, Controller::Mb);
+    assert_eq!(s.split_run(6 * 4 + 3), (6, 3));
+}
+
+#[test]
+fn profiles_resolve_per_controller_and_explicit_keys_override_them() {
+    let s = parse(
+        r#"
+[grid]
+controller = ["mf", "ec"]
+profile = ["paper-takeover", "teacher"]
+[fixed]
+zeta = 0.5
+[profiles.teacher]
+interaction = "congratulation"
+budget = 100
+zeta = 0.3
+forget = 0
+"#,
+    );
+    let names = |c: u64| s.profile_names[s.resolve(c).profile].clone();
+    let mf_paper = s.resolve(0).params;
+    assert_eq!(mf_paper.profile, Profile::PaperTakeover);
+    assert_eq!(
+        (mf_paper.human.interaction, mf_paper.human.budget),
+        (Interaction::Takeover, 200),
+        "paper-takeover gives MF 200 interactions"
+    );
+    assert_eq!(s.resolve(2).params.human.budget, 50, "and EC 50");
+    let teacher = s.resolve(1).params;
+    assert_eq!(teacher.human.budget, 100);
+    assert_eq!(teacher.human.forget_prob, 0.0);
+    assert_eq!(
+        teacher.human.zeta, 0.5,
+        "[fixed] zeta overrides the profile's"
+    );
+    assert_eq!(names(0), "paper-takeover");
+    assert_eq!(names(1), "teacher");
+}
+
+#[test]
+fn steps_default_to_the_task_length_and_kebab_case_keys_are_accepted() {
+    let s = parse("[grid]\ntask = [\"tidy1\", \"tidy2\"]\n[fixed]\nkappa-coeff = 3\n");
+    assert_eq!(s.resolve(0).params.steps, 10_000);
+    assert_eq!(s.resolve(1).params.steps, 20_000);
+    assert_eq!(s.resolve(1).params.kappa_coeff, 3.0);
+    assert_eq!(s.tasks, vec!["tidy1", "tidy2"]);
+}
+
+#[test]
+fn a_misspelt_key_names_file_line_and_the_closest_key() {
+    let err = parse_err("seeds = 2\n\n[grid]\nkapa_coeff = [1, 2]\n");
+    assert!(err.starts_with("bad.toml:4: "), "{err}");
+    assert!(err.contains("unknown key 'kapa_coeff' in [grid]"), "{err}");
+    assert!(err.contains("did you mean 'kappa_coeff'?"), "{err}");
+    assert!(err.contains("known keys: task, controller"), "{err}");
+}
+
+#[test]
+fn an_unknown_value_lists_the_accepted_values() {
+    let err = parse_err("[grid]\ncontroller = [\"mf\",\n  \"eec\"]\n");
+    assert!(err.starts_with("bad.toml:3: "), "{err}");
+    assert!(err.contains("key 'controller'"), "{err}");
+    assert!(err.contains("did you mean 'ec'?"), "{err}");
+    assert!(
+        err.contains("accepted values: mf, mb, rnd, ec, entropy"),
+        "{err}"
+    );
+}
+
+#[test]
+fn an_out_of_range_value_names_its_line_key_and_accepted_range() {
+    let err = parse_err("[fixed]\ntask = \"tidy1\"\ntau = -1\n");
+    assert!(err.starts_with("bad.toml:3: key 'tau' in [fixed]"), "{err}");
+    assert!(err.contains("temperature"), "{err}");
+    let err = parse_err("[grid]\nforget = { from = 0, to = 2, steps = 3 }\n");
+    assert!(err.contains("the range reaches 2"), "{err}");
+    assert!(err.contains("probability in [0, 1]"), "{err}");
+}
+
+#[test]
+fn structural_mistakes_are_explained() {
+    let cases = [
+        (
+            "[[zip]]\ncontroller = [\"mf\", \"mb\"]\nbudget = [1, 2, 3]\n",
+            "must have the same length: controller has 2, budget has 3",
+        ),
+        ("task = \"tidy1\"\n", "must be inside [fixed]"),
+        ("seed = 3\n", "did you mean 'seeds'?"),
+        (
+            "[grid]\nbudget = []\n",
+            "an empty list gives no configuration",
+        ),
+        (
+            "[grid]\nbudget = { from = 0, to = 10, steps = 4 }\n",
+            "takes whole numbers",
+        ),
+        (
+            "[grid]\nzeta = { from = 0, to = 1, stepz = 3 }\n",
+            "unknown range field 'stepz'; did you mean 'steps'?",
+        ),
+        (
+            "[grid]\ncontroller = { from = 0, to = 1, steps = 2 }\n",
+            "ranges are for numeric keys",
+        ),
+        (
+            "[fixed]\nbudget = 5\n[grid]\nbudget = [1, 2]\n",
+            "already set in [fixed] (line 2)",
+        ),
+        (
+            "[fixed]\nbudget = [1, 2]\n",
+            "put lists and ranges in [grid]",
+        ),
+        (
+            "[grid]\nprofile = [\"generus\"]\n",
+            "unknown profile 'generus'; did you mean 'generous'?",
+        ),
+        ("[grid]\ntask = [\"tidy3\"]\n", "did you mean 'tidy1'?"),
+        ("[grid\n", "not valid TOML"),
+    ];
+    for (text, expected) in cases {
+        let err = parse_err(text);
+        assert!(err.contains(expected), "for\n{text}\ngot: {err}");
+        assert!(err.starts_with("bad.toml:"), "{err}");
+    }
+}
+
+#[test]
+fn interactions_on_a_json_task_are_refused_naming_the_combination() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = repo().join("tests/data/tidy1/tidy1.json");
+    let text = format!(
+        "[grid]\ntask = [\"tidy1\", \"json:{}\"]\n\n[[zip]]\ninteraction = [\"none\", \"takeover\"]\nbudget = [0, 10]\n",
+        data.display()
+    );
+    let file = write_sweep(dir.path(), "json.toml", &text);
+    let out = run(&["sweep", &file, "--dry-run"]);
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("json.toml:5: key 'interaction'"), "{err}");
+    assert!(err.contains("configuration 3 ("), "{err}");
+    assert!(err.contains("interaction = takeover"), "{err}");
+    assert!(err.contains("is not defined for task"), "{err}");
+}
+
+#[test]
+fn dry_run_prints_configurations_runs_and_an_estimate_and_writes_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = write_sweep(dir.path(), "small.toml", SMALL);
+    let out_dir = dir.path().join("out");
+    let out = run_ok(&[
+        "sweep",
+        &file,
+        "--dry-run",
+        "--out",
+        out_dir.to_str().unwrap(),
+    ]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.contains("4 configurations x 3 seeds = 12 runs (master seed 11)"),
+        "{text}"
+    );
+    assert!(
+        text.contains("[grid] controller: 2 values: mf, ec"),
+        "{text}"
+    );
+    assert!(
+        text.contains("[[zip]] #1 interaction, budget: 2 values: (none, 0), (takeover, 15)"),
+        "{text}"
+    );
+    assert!(text.contains("agent-steps: 6000"), "{text}");
+    assert!(text.contains("estimated time: "), "{text}");
+    assert!(!out_dir.exists());
+}
+
+#[test]
+fn the_dataset_equals_mbmf_run_for_the_same_runs() {
+    let dir = tempfile::tempdir().unwrap();
+    let sweep = "seeds = 4\nmaster_seed = 5\n[fixed]\nsteps = 600\nbabbling = 200\ncheckpoint = 150\n[grid]\ncontroller = [\"mf\", \"rnd\", \"ec\"]\n";
+    let file = write_sweep(dir.path(), "s.toml", sweep);
+    let sweep_out = dir.path().join("sweep");
+    let run_out = dir.path().join("run");
+    run_ok(&[
+        "sweep",
+        &file,
+        "--out",
+        sweep_out.to_str().unwrap(),
+        "--quiet",
+        "--batch-size",
+        "5",
+    ]);
+    run_ok(&[
+        "run",
+        "--controller",
+        "mf,rnd,ec",
+        "--runs",
+        "4",
+        "--seed",
+        "5",
+        "--steps",
+        "600",
+        "--babbling",
+        "200",
+        "--checkpoint",
+        "150",
+        "--quiet",
+        "--out",
+        run_out.to_str().unwrap(),
+    ]);
+    let (sweep_runs, sweep_series) = dataset(&sweep_out);
+    let run_runs = file_rows(&run_out.join("runs.parquet"), NONDETERMINISTIC);
+    let run_series = file_rows(&run_out.join("series.parquet"), NONDETERMINISTIC);
+    assert_eq!(sweep_runs.len(), 12);
+    let columns: Vec<String> = run_runs[0].keys().cloned().collect();
+    assert!(columns.contains(&"total_reward".to_string()));
+    let mut expected = run_runs.clone();
+    sort_rows(&mut expected);
+    assert_same_rows("runs", &project(&sweep_runs, &columns), &expected);
+    let columns: Vec<String> = run_series[0].keys().cloned().collect();
+    let mut expected = run_series.clone();
+    sort_rows(&mut expected);
+    assert_same_rows("series", &project(&sweep_series, &columns), &expected);
+    // The sweep adds its own identity columns.
+    assert_eq!(sweep_runs[7]["config_index"], "1");
+    assert_eq!(sweep_runs[7]["seed_index"], "3");
+    assert_eq!(sweep_runs[7]["seed"], "5");
+}
+
+#[test]
+fn parts_carry_the_sweep_text_version_and_master_seed() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = write_sweep(dir.path(), "small.toml", SMALL);
+    let out = dir.path().join("out");
+    run_ok(&["sweep", &file, "--out", out.to_str().unwrap(), "--quiet"]);
+    let part = out.join("runs").join(&parts(&out, "runs")[0]);
+    let reader =
+        parquet::file::reader::SerializedFileReader::new(std::fs::File::open(&part).unwrap())
+            .unwrap();
+    use parquet::file::reader::FileReader;
+    let kv = reader
+        .metadata()
+        .file_metadata()
+        .key_value_metadata()
+        .unwrap()
+        .clone();
+    let get = |k: &str| {
+        kv.iter()
+            .find(|e| e.key == k)
+            .and_then(|e| e.value.clone())
+            .unwrap_or_else(|| panic!("no {k} in metadata"))
+    };
+    assert_eq!(get("mbmf_sweep"), SMALL);
+    assert_eq!(get("master_seed"), "11");
+    assert_eq!(get("mbmf_version"), env!("CARGO_PKG_VERSION"));
+    assert_eq!(
+        std::fs::read_to_string(out.join("sweep.toml")).unwrap(),
+        SMALL
+    );
+}
+
+#[test]
+fn resuming_after_deleting_parts_equals_a_full_run_and_batch_size_does_not_matter() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = write_sweep(dir.path(), "small.toml", SMALL);
+    let full = dir.path().join("full");
+    let partial = dir.path().join("partial");
+    run_ok(&["sweep", &file, "--out", full.to_str().unwrap(), "--quiet"]);
+    run_ok(&[
+        "sweep",
+        &file,
+        "--out",
+        partial.to_str().unwrap(),
+        "--quiet",
+        "--batch-size",
+        "2",
+    ]);
+    let names = parts(&partial, "runs");
+    assert_eq!(names.len(), 6, "12 runs in parts of 2");
+    assert_eq!(names[0], "part-000000-000001.parquet");
+    // A part lost entirely, and a part whose runs file was never renamed into place.
+    for sub in ["runs", "series"] {
+        std::fs::remove_file(partial.join(sub).join(&names[1])).unwrap();
+    }
+    std::fs::remove_file(partial.join("runs").join(&names[4])).unwrap();
+    let out = run_ok(&[
+        "sweep",
+        &file,
+        "--out",
+        partial.to_str().unwrap(),
+        "--resume",
+    ]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("8 of 12 runs already done, 4 to run"),
+        "{stderr}"
+    );
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(stdout.contains("4 runs in"), "{stdout}");
+    assert!(stdout.contains("dataset complete: 12 runs"), "{stdout}");
+    assert_same_dataset("resumed vs full", &partial, &full);
+    assert!(temporaries(&partial).is_empty());
+    // Nothing left to do: a second resume writes nothing.
+    let again = run_ok(&[
+        "sweep",
+        &file,
+        "--out",
+        partial.to_str().unwrap(),
+        "--resume",
+    ]);
+    assert!(String::from_utf8_lossy(&again.stdout).contains("0 runs in"));
+}
+
+#[test]
+fn the_union_of_shards_equals_the_single_process_dataset() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = write_sweep(dir.path(), "small.toml", SMALL);
+    let single = dir.path().join("single");
+    let sharded = dir.path().join("sharded");
+    run_ok(&["sweep", &file, "--out", single.to_str().unwrap(), "--quiet"]);
+    for i in 0..3 {
+        let out = run_ok(&[
+            "sweep",
+            &file,
+            "--out",
+            sharded.to_str().unwrap(),
+            "--shard",
+            &format!("{i}/3"),
+            "--batch-size",
+            "4",
+        ]);
+        let line = String::from_utf8_lossy(&out.stdout);
+        assert!(line.contains(&format!("(shard {i}/3)")), "{line}");
+    }
+    assert_same_dataset("3 shards vs 1 process", &sharded, &single);
+    // Shard 0 of 3 owns configurations 0 and 3: runs 0-2 and 9-11.
+    let shard0 = tempfile::tempdir().unwrap();
+    run_ok(&[
+        "sweep",
+        &file,
+        "--out",
+        shard0.path().to_str().unwrap(),
+        "--shard",
+        "0/3",
+        "--quiet",
+    ]);
+    let (runs, _) = dataset(shard0.path());
+    let ids: Vec<&str> = runs.iter().map(|r| r["run_index"].as_str()).collect();
+    assert_eq!(ids, ["0", "1", "2", "9", "10", "11"]);
+}
+
+#[test]
+fn shards_from_the_environment_are_checked_against_their_count() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = write_sweep(dir.path(), "small.toml", SMALL);
+    let out_dir = dir.path().join("out");
+    let out = mbmf()
+        .args(["sweep", &file, "--shard-from-env", "--out"])
+        .arg(&out_dir)
+        .env("SLURM_ARRAY_TASK_ID", "3")
+        .env("SLURM_ARRAY_TASK_COUNT", "3")
+        .env_remove("SLURM_ARRAY_TASK_MIN")
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("shard index 3 is not below the shard count 3"),
+        "{err}"
+    );
+    let out = mbmf()
+        .args(["sweep", &file, "--shard-from-env", "--quiet", "--out"])
+        .arg(&out_dir)
+        .env("SLURM_ARRAY_TASK_ID", "3")
+        .env("SLURM_ARRAY_TASK_COUNT", "3")
+        .env("SLURM_ARRAY_TASK_MIN", "1")
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let (runs, _) = dataset(&out_dir);
+    let ids: Vec<&str> = runs.iter().map(|r| r["run_index"].as_str()).collect();
+    assert_eq!(ids, ["6", "7", "8"], "--array=1-3, task 3: shard 2/3");
+    assert_eq!(
+        "5/4".parse::<Shard>().unwrap_err().to_string(),
+        "shard index 5 is not below the shard count 4: shards are numbered from 0, so --shard I/N needs I < N"
+    );
+}
+
+#[test]
+fn a_folder_being_written_is_refused_and_a_stale_lock_is_taken_over() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = write_sweep(dir.path(), "small.toml", SMALL);
+    let out = dir.path().join("out");
+    std::fs::create_dir(&out).unwrap();
+    let lock_path = out.join(".lock-0-of-1");
+    // This test process plays the other writer: it holds the lock, as a running sweep does.
+    let holder = std::fs::File::create(&lock_path).unwrap();
+    holder.try_lock().unwrap();
+    std::fs::write(&lock_path, "pid=4242 host=elsewhere shard=0/1\n").unwrap();
+    let refused = run(&["sweep", &file, "--out", out.to_str().unwrap()]);
+    assert_eq!(refused.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&refused.stderr);
+    assert!(
+        err.contains("is being written by pid 4242 on host elsewhere"),
+        "{err}"
+    );
+    assert!(parts(&out, "runs").is_empty());
+    // A sharded process with a different split is refused too.
+    let other = run(&[
+        "sweep",
+        &file,
+        "--out",
+        out.to_str().unwrap(),
+        "--shard",
+        "0/2",
+    ]);
+    assert_eq!(other.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&other.stderr);
+    assert!(err.contains("different split"), "{err}");
+    // The holder dies: its lock file stays, but the kernel released the lock.
+    drop(holder);
+    let ok = run_ok(&["sweep", &file, "--out", out.to_str().unwrap(), "--quiet"]);
+    let err = String::from_utf8_lossy(&ok.stderr);
+    assert!(
+        err.contains("warning: taking over the stale lock") && err.contains("pid 4242"),
+        "{err}"
+    );
+    assert!(!lock_path.exists(), "the lock file is removed at the end");
+    assert_eq!(dataset(&out).0.len(), 12);
+}
+
+#[test]
+fn existing_results_need_resume_and_a_different_sweep_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = write_sweep(dir.path(), "small.toml", SMALL);
+    let other = write_sweep(
+        dir.path(),
+        "other.toml",
+        &SMALL.replace("seeds = 3", "seeds = 2"),
+    );
+    let out = dir.path().join("out");
+    let out_s = out.to_str().unwrap();
+    run_ok(&["sweep", &file, "--out", out_s, "--quiet"]);
+    let again = run(&["sweep", &file, "--out", out_s]);
+    assert_eq!(again.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&again.stderr).contains("pass --resume"));
+    let different = run(&["sweep", &other, "--out", out_s, "--resume"]);
+    assert_eq!(different.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&different.stderr);
+    assert!(err.contains("holds a different sweep"), "{err}");
+    assert!(err.contains("first difference at line 2"), "{err}");
+    let foreign = dir.path().join("foreign");
+    std::fs::create_dir(&foreign).unwrap();
+    std::fs::write(foreign.join("notes.txt"), "mine").unwrap();
+    let refused = run(&["sweep", &file, "--out", foreign.to_str().unwrap()]);
+    assert_eq!(refused.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&refused.stderr).contains("not a sweep dataset"));
+}
+
+/// A mounted tmpfs, unmounted on drop.
+struct Mount(std::path::PathBuf);
+
+impl Mount {
+    /// Mounts a tmpfs with `options` on a new folder, or says why it cannot.
+    fn tmpfs(options: &str) -> Result<Mount, String> {
+        let dir = tempfile::tempdir().unwrap().keep();
+        let out = std::process::Command::new("mount")
+            .args(["-t", "tmpfs", "-o", options, "tmpfs"])
+            .arg(&dir)
+            .output()
+            .map_err(|e| e.to_string())?;
+        if out.status.success() {
+            Ok(Mount(dir))
+        } else {
+            Err(String::from_utf8_lossy(&out.stderr).trim().to_string())
+        }
+    }
+}
+
+impl Drop for Mount {
+    fn drop(&mut self) {
+        let _ = std::process::Command::new("umount").arg(&self.0).status();
+        let _ = std::fs::remove_dir(&self.0);
+    }
+}
+
+fn is_root() -> bool {
+    std::process::Command::new("id")
+        .arg("-u")
+        .output()
+        .map(|o| String::from_utf8_lossy(&o.stdout).trim() == "0")
+        .unwrap_or(false)
+}
+
+#[test]
+fn an_unwritable_output_folder_fails_before_simulating() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = write_sweep(dir.path(), "small.toml", SMALL);
+    // Root ignores permission bits, so root gets a read-only file system instead.
+    let (_mount, readonly) = if is_root() {
+        match Mount::tmpfs("ro,size=64k") {
+            Ok(m) => {
+                let p = m.0.clone();
+                (Some(m), p)
+            }
+            Err(e) => {
+                eprintln!(
+                    "SKIP an_unwritable_output_folder_fails_before_simulating: cannot mount a read-only tmpfs as root ({e})"
+                );
+                return;
+            }
+        }
+    } else {
+        use std::os::unix::fs::PermissionsExt;
+        let p = dir.path().join("readonly");
+        std::fs::create_dir(&p).unwrap();
+        std::fs::set_permissions(&p, std::fs::Permissions::from_mode(0o555)).unwrap();
+        (None, p)
+    };
+    let out = readonly.join("dataset");
+    let result = run(&["sweep", &file, "--out", out.to_str().unwrap()]);
+    assert_eq!(result.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&result.stderr);
+    assert!(
+        err.contains(&format!("cannot create output folder {}", out.display())),
+        "{err}"
+    );
+    assert!(
+        err.contains("Read-only file system") || err.contains("Permission denied"),
+        "{err}"
+    );
+    assert!(!out.exists());
+}
+
+#[test]
+fn a_full_disk_fails_with_a_clear_error_and_leaves_no_partial_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = write_sweep(
+        dir.path(),
+        "big.toml",
+        &SMALL.replace("seeds = 3", "seeds = 40"),
+    );
+    let mount = match Mount::tmpfs("size=64k") {
+        Ok(m) => m,
+        Err(e) => {
+            eprintln!(
+                "SKIP a_full_disk_fails_with_a_clear_error_and_leaves_no_partial_file: cannot \
+                 mount a 64 KiB tmpfs ({e}); this needs root (CAP_SYS_ADMIN)"
+            );
+            return;
+        }
+    };
+    let out = mount.0.join("dataset");
+    let result = run(&[
+        "sweep",
+        &file,
+        "--out",
+        out.to_str().unwrap(),
+        "--batch-size",
+        "8",
+    ]);
+    assert_eq!(result.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&result.stderr);
+    assert!(err.contains("No space left on device"), "{err}");
+    assert!(err.contains("part-"), "the message names the file: {err}");
+    assert!(temporaries(&out).is_empty(), "{:?}", temporaries(&out));
+    // Whatever was written before the disk filled is complete and committed in pairs.
+    let runs = parts(&out, "runs");
+    assert_eq!(runs, parts(&out, "series"));
+    for name in &runs {
+        for sub in ["runs", "series"] {
+            file_rows(&out.join(sub).join(name), &[]);
+        }
+    }
+    assert!(runs.len() < 20, "the disk should have filled up");
+}
+
+#[test]
+fn shipped_sweeps_are_valid_and_say_what_they_answer() {
+    let mut found = 0;
+    for entry in std::fs::read_dir(repo().join("sweeps")).unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().is_none_or(|e| e != "toml") {
+            continue;
+        }
+        found += 1;
+        let sweep = Sweep::load(&path).unwrap_or_else(|e| panic!("{e}"));
+        let specs = sweep.load_specs().unwrap_or_else(|e| panic!("{e}"));
+        sweep.check(&specs).unwrap_or_else(|e| panic!("{e}"));
+        assert!(
+            sweep.text.trim_start().starts_with('#'),
+            "{} should start with a comment saying what question it answers",
+            path.display()
+        );
+    }
+    assert!(found >= 6, "paper, kappa, budget, zeta, profiles, smoke");
+    let kappa = Sweep::load(&repo().join("sweeps/kappa.toml")).unwrap();
+    assert_eq!(kappa.seeds, 50);
+    assert_eq!(kappa.axes[0].values.len(), 41, "kappa_coeff 0..20 by 0.5");
+}

@@ -1,0 +1,211 @@
+//! Helpers shared by the sweep tests: running the binary, and reading a dataset back as sorted
+//! rows so two datasets can be compared regardless of how runs were split into parts.
+#![allow(dead_code)]
+
+use std::collections::BTreeMap;
+use std::fs::File;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use arrow::util::display::array_value_to_string;
+use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
+
+/// Columns that legitimately differ between two runs of the same sweep.
+pub const NONDETERMINISTIC: &[&str] = &["wall_time_s"];
+
+/// The mbmf binary built for the tests.
+pub fn mbmf() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_mbmf"))
+}
+
+/// Runs mbmf with `args` and returns its output.
+pub fn run(args: &[&str]) -> Output {
+    mbmf().args(args).output().expect("mbmf starts")
+}
+
+/// Runs mbmf and panics with its stderr unless it succeeds.
+pub fn run_ok(args: &[&str]) -> Output {
+    let out = run(args);
+    assert!(
+        out.status.success(),
+        "mbmf {args:?} failed ({:?}):\n{}",
+        out.status,
+        String::from_utf8_lossy(&out.stderr)
+    );
+    out
+}
+
+/// The repository root.
+pub fn repo() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// Writes `text` as `name` in `dir` and returns its path as a string.
+pub fn write_sweep(dir: &Path, name: &str, text: &str) -> String {
+    let path = dir.join(name);
+    std::fs::write(&path, text).unwrap();
+    path.to_str().unwrap().to_string()
+}
+
+/// One row: column name to displayed value.
+pub type Row = BTreeMap<String, String>;
+
+/// Every row of every `*.parquet` file of `dir` (no hidden files), minus `skip` columns, sorted
+/// by run index then step.
+pub fn rows(dir: &Path, skip: &[&str]) -> Vec<Row> {
+    let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
+        .unwrap_or_else(|e| panic!("cannot list {}: {e}", dir.display()))
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|x| x == "parquet"))
+        .filter(|p| !p.file_name().unwrap().to_string_lossy().starts_with('.'))
+        .collect();
+    files.sort();
+    let mut out = Vec::new();
+    for file in files {
+        out.extend(file_rows(&file, skip));
+    }
+    sort_rows(&mut out);
+    out
+}
+
+/// The rows of one Parquet file.
+pub fn file_rows(file: &Path, skip: &[&str]) -> Vec<Row> {
+    let reader = ParquetRecordBatchReaderBuilder::try_new(File::open(file).unwrap())
+        .unwrap_or_else(|e| panic!("{} is not a readable Parquet file: {e}", file.display()))
+        .build()
+        .unwrap();
+    let mut out = Vec::new();
+    for batch in reader {
+        let batch = batch.unwrap();
+        let schema = batch.schema();
+        for r in 0..batch.num_rows() {
+            let mut row = Row::new();
+            for (field, col) in schema.fields().iter().zip(batch.columns()) {
+                if skip.contains(&field.name().as_str()) {
+                    continue;
+                }
+                let v = if col.is_null(r) {
+                    "null".to_string()
+                } else {
+                    array_value_to_string(col, r).unwrap()
+                };
+                row.insert(field.name().clone(), v);
+            }
+            out.push(row);
+        }
+    }
+    out
+}
+
+/// Sorts rows by run index, then step (series).
+pub fn sort_rows(rows: &mut [Row]) {
+    let key = |r: &Row| {
+        let n = |c: &str| r.get(c).and_then(|v| v.parse::<u64>().ok()).unwrap_or(0);
+        (n("run_index"), n("step"))
+    };
+    rows.sort_by_key(key);
+}
+
+/// Keeps only the given columns of each row.
+pub fn project(rows: &[Row], columns: &[String]) -> Vec<Row> {
+    rows.iter()
+        .map(|r| {
+            r.iter()
+                .filter(|(k, _)| columns.contains(k))
+                .map(|(k, v)| (k.clone(), v.clone()))
+                .collect()
+        })
+        .collect()
+}
+
+/// Asserts that two tables are equal, naming the first differing row and column.
+pub fn assert_same_rows(what: &str, left: &[Row], right: &[Row]) {
+    assert_eq!(
+        left.len(),
+        right.len(),
+        "{what}: {} rows vs {} rows",
+        left.len(),
+        right.len()
+    );
+    for (i, (a, b)) in left.iter().zip(right).enumerate() {
+        if a != b {
+            let col = a
+                .keys()
+                .chain(b.keys())
+                .find(|k| a.get(*k) != b.get(*k))
+                .cloned()
+                .unwrap_or_default();
+            panic!(
+                "{what}: row {i} (run_index {:?}) differs in column '{col}': {:?} vs {:?}",
+                a.get("run_index"),
+                a.get(&col),
+                b.get(&col)
+            );
+        }
+    }
+}
+
+/// Runs and series rows of a dataset folder.
+pub fn dataset(dir: &Path) -> (Vec<Row>, Vec<Row>) {
+    (
+        rows(&dir.join("runs"), NONDETERMINISTIC),
+        rows(&dir.join("series"), NONDETERMINISTIC),
+    )
+}
+
+/// Asserts that two dataset folders hold the same runs and series.
+pub fn assert_same_dataset(what: &str, a: &Path, b: &Path) {
+    let (ra, sa) = dataset(a);
+    let (rb, sb) = dataset(b);
+    assert!(!ra.is_empty(), "{what}: no runs in {}", a.display());
+    assert_same_rows(&format!("{what} (runs)"), &ra, &rb);
+    assert_same_rows(&format!("{what} (series)"), &sa, &sb);
+}
+
+/// Hidden temporary files (`.part-*.tmp-*`) left in the dataset's part folders.
+pub fn temporaries(dir: &Path) -> Vec<PathBuf> {
+    let mut out = Vec::new();
+    for sub in ["runs", "series"] {
+        if let Ok(entries) = std::fs::read_dir(dir.join(sub)) {
+            for e in entries.flatten() {
+                if e.file_name().to_string_lossy().contains(".tmp-") {
+                    out.push(e.path());
+                }
+            }
+        }
+    }
+    out
+}
+
+/// Part file names of `dir/sub`.
+pub fn parts(dir: &Path, sub: &str) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(dir.join(sub))
+        .map(|d| {
+            d.flatten()
+                .map(|e| e.file_name().to_string_lossy().into_owned())
+                .filter(|n| n.starts_with("part-") && n.ends_with(".parquet"))
+                .collect()
+        })
+        .unwrap_or_default();
+    names.sort();
+    names
+}
+
+/// A small sweep used by several tests: 2 controllers x 2 profiles (zip) x 3 seeds = 12 runs.
+pub const SMALL: &str = r#"
+seeds = 3
+master_seed = 11
+
+[fixed]
+task = "tidy1"
+steps = 400
+babbling = 100
+checkpoint = 100
+
+[grid]
+controller = ["mf", "ec"]
+
+[[zip]]
+interaction = ["none", "takeover"]
+budget = [0, 15]
+"#;
