@@ -1006,3 +1006,67 @@ pub fn main_with_args(args: impl IntoIterator<Item = std::ffi::OsString>) -> Res
         Command::Env(cmd) => env_command(cmd),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_memory_estimate_of_a_run_covers_the_batch_state_it_allocates() {
+        let spec = Arc::new(env::load("tidy1").expect("tidy1"));
+        for (window_n, steps, checkpoint) in [(1, 100, 10), (10, 1000, 100), (2000, 50, 1)] {
+            let params = Params {
+                window_n,
+                steps,
+                checkpoint,
+                ..Params::default()
+            };
+            let configs: Vec<RunConfig> = (0..4)
+                .map(|r| RunConfig {
+                    params,
+                    seed: 1,
+                    run_index: r,
+                })
+                .collect();
+            let batch = Batch::new(Arc::clone(&spec), configs).expect("valid");
+            let actual = batch.state_bytes() as f64 / 4.0;
+            let estimate = bytes_per_run(&spec, &params) as f64;
+            // The estimate adds the Arrow rows written from the batch: at least the state, at
+            // most the state plus those rows and a few percent.
+            let rows = crate::batch::checkpoint_count(&params) as f64;
+            let arrow = rows * (SERIES_ROW_BYTES + spec.name.len() as u64) as f64;
+            assert!(
+                estimate >= actual,
+                "window {window_n}: {estimate} < {actual}"
+            );
+            assert!(
+                estimate <= 1.1 * actual + arrow + RUN_ROW_BYTES as f64,
+                "window {window_n}: {estimate} for {actual}"
+            );
+        }
+    }
+
+    #[test]
+    fn whole_number_flags_say_which_rule_a_bad_value_breaks() {
+        assert_eq!(count("12"), Ok(12));
+        assert!(count("-1").unwrap_err().contains("-1 is too small"));
+        assert!(count("4294967296").unwrap_err().contains("too large"));
+        assert!(count("2.5").unwrap_err().contains("not a whole number"));
+        assert!(runs_count("0").unwrap_err().contains("from 1 to 1000000"));
+        assert_eq!(seed("18446744073709551615"), Ok(u64::MAX));
+        assert!(number("x").is_err());
+        assert!(number("nan").is_ok_and(f64::is_nan));
+    }
+
+    #[test]
+    fn mean_and_deviation_stay_finite_for_huge_values() {
+        let (m, s) = mean_sd(&[1e305, 3e305, 1e305, 3e305]);
+        assert!((m - 2e305).abs() < 1e290, "{m}");
+        // Deviations of ±1e305: variance 4/3 x 1e610, computed without overflowing.
+        let expected = (4.0f64 / 3.0).sqrt() * 1e305;
+        assert!((s - expected).abs() / expected < 1e-12, "{s}");
+        assert_eq!(mean_sd(&[2.0, 4.0]), (3.0, 2f64.sqrt()));
+        assert_eq!(mean_sd(&[0.0, 0.0]), (0.0, 0.0));
+        assert!(mean_sd(&[]).0.is_nan());
+    }
+}
