@@ -49,7 +49,14 @@ pub fn runtime(error: impl Into<anyhow::Error>) -> Failure {
 
 /// mbmf: batch simulation of MF/MB expert coordination under variable human feedback.
 #[derive(Debug, Parser)]
-#[command(name = "mbmf", version, about, long_about = None, help_expected = true)]
+#[command(
+    name = "mbmf",
+    version,
+    about,
+    long_about = None,
+    help_expected = true,
+    after_help = "Exit codes: 0 success, 1 runtime failure (e.g. a write that failed), 2 usage error (a bad flag, value, file or combination)."
+)]
 pub struct Cli {
     /// Worker threads, 1 to 4096 (default: RAYON_NUM_THREADS, else every core). Results do not
     /// depend on it.
