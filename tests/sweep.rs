@@ -704,3 +704,66 @@ fn shipped_sweeps_are_valid_and_say_what_they_answer() {
     assert_eq!(kappa.seeds, 50);
     assert_eq!(kappa.axes[0].values.len(), 41, "kappa_coeff 0..20 by 0.5");
 }
+
+/// Rows of every part of `dir` from the files' footers (cheap for large datasets).
+fn footer_rows(dir: &Path) -> i64 {
+    use parquet::file::reader::{FileReader, SerializedFileReader};
+    parts(
+        dir.parent().unwrap(),
+        dir.file_name().unwrap().to_str().unwrap(),
+    )
+    .iter()
+    .map(|name| {
+        let f = std::fs::File::open(dir.join(name)).unwrap();
+        SerializedFileReader::new(f)
+            .unwrap()
+            .metadata()
+            .file_metadata()
+            .num_rows()
+    })
+    .sum()
+}
+
+#[test]
+fn a_100000_run_sweep_holds_one_batch_in_memory_not_all_runs() {
+    // 100,000 runs of 50 steps with a checkpoint at every step: 5 million series rows, which
+    // held in memory as Arrow columns would take over a gigabyte.
+    let sweep = "seeds = 10\n[fixed]\ncontroller = \"mf\"\nsteps = 50\nbabbling = 0\n\
+                 checkpoint = 1\n[grid]\nbudget = { from = 0, to = 9999, by = 1 }\n";
+    let dir = tempfile::tempdir().unwrap();
+    let file = write_sweep(dir.path(), "big.toml", sweep);
+    let out = dir.path().join("out");
+    let mut child = mbmf()
+        .args(["sweep", &file, "--quiet", "--batch-size", "1000", "--out"])
+        .arg(&out)
+        .spawn()
+        .unwrap();
+    // VmHWM is the peak resident size so far: the last reading before exit is the peak.
+    let status_file = format!("/proc/{}/status", child.id());
+    let mut peak_kb = 0u64;
+    let status = loop {
+        let reading = std::fs::read_to_string(&status_file).ok().and_then(|text| {
+            text.lines()
+                .find_map(|l| l.strip_prefix("VmHWM:"))
+                .and_then(|v| v.trim().trim_end_matches("kB").trim().parse::<u64>().ok())
+        });
+        peak_kb = peak_kb.max(reading.unwrap_or(0));
+        if let Some(status) = child.try_wait().unwrap() {
+            break status;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(10));
+    };
+    assert!(status.success());
+    assert_eq!(footer_rows(&out.join("runs")), 100_000);
+    assert_eq!(footer_rows(&out.join("series")), 5_000_000);
+    assert_eq!(parts(&out, "runs").len(), 100);
+    if peak_kb == 0 {
+        eprintln!("SKIP the memory bound: /proc/PID/status is not readable here");
+        return;
+    }
+    assert!(
+        peak_kb < 400 * 1024,
+        "peak resident memory {} MB for batches of 1,000 runs",
+        peak_kb / 1024
+    );
+}

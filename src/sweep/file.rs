@@ -1161,14 +1161,11 @@ impl Sweep {
                 } else {
                     Key::Task
                 };
-                return Err(self.err_at_key(
-                    key,
-                    format!(
-                        "configuration {config} ({}, task = {}): {e}",
-                        self.describe(config),
-                        self.tasks[r.task]
-                    ),
-                ));
+                let mut what = self.describe(config);
+                if !self.axes.iter().any(|a| a.keys.contains(&Key::Task)) {
+                    what += &format!(", task = {}", self.tasks[r.task]);
+                }
+                return Err(self.err_at_key(key, format!("configuration {config} ({what}): {e}")));
             }
         }
         Ok(())

@@ -376,8 +376,12 @@ pub fn init_folder(dir: &Path, text: &str, file: &str) -> Result<(), StoreError>
             let _ = fs::remove_file(&tmp);
             return Err(io("write", &sweep)(e));
         }
-        // hard_link fails if another shard stored it first; then compare below.
-        let linked = fs::hard_link(&tmp, &sweep);
+        // hard_link fails if another shard stored it first; then compare below. File systems
+        // without hard links get a plain rename (same text from every shard anyway).
+        let linked = match fs::hard_link(&tmp, &sweep) {
+            Err(e) if e.kind() != std::io::ErrorKind::AlreadyExists => fs::rename(&tmp, &sweep),
+            other => other,
+        };
         let _ = fs::remove_file(&tmp);
         match linked {
             Ok(()) => sync_dir(dir),
