@@ -23,7 +23,7 @@ use crate::batch::{Batch, RunConfig};
 #[derive(Debug, thiserror::Error)]
 pub enum OutputError {
     /// The file system refused.
-    #[error("cannot write {path}: {source}")]
+    #[error("cannot write {path}")]
     Io {
         /// The file concerned.
         path: PathBuf,
@@ -31,7 +31,7 @@ pub enum OutputError {
         source: std::io::Error,
     },
     /// The Parquet encoder failed.
-    #[error("cannot encode {path} as Parquet: {source}")]
+    #[error("cannot encode {path} as Parquet")]
     Parquet {
         /// The file concerned.
         path: PathBuf,
@@ -301,9 +301,18 @@ impl ParquetSink {
         })
     }
 
-    /// Flushes, syncs and renames the file into place. Returns its final path.
+    /// Flushes, syncs and renames the file into place. Returns its final path. On failure the
+    /// temporary file is removed, so nothing partial is left behind.
     pub fn finish(mut self) -> Result<PathBuf, OutputError> {
         let writer = self.writer.take().expect("finish after at least one write");
+        let result = self.close(writer);
+        if result.is_err() {
+            let _ = std::fs::remove_file(&self.tmp);
+        }
+        result
+    }
+
+    fn close(&self, writer: ArrowWriter<File>) -> Result<PathBuf, OutputError> {
         let file = writer.into_inner().map_err(|source| OutputError::Parquet {
             path: self.path.clone(),
             source,
