@@ -102,6 +102,22 @@ impl Report {
     }
 }
 
+/// A progress bar on stderr: its length is agent-steps (so the ETA weighs long and short runs
+/// right), its message the runs done and runs per second. Hidden when `quiet` or when stderr is
+/// not a terminal.
+fn progress_bar(agent_steps: u64, quiet: bool) -> indicatif::ProgressBar {
+    if quiet {
+        return indicatif::ProgressBar::hidden();
+    }
+    let bar = indicatif::ProgressBar::new(agent_steps);
+    if let Ok(style) = indicatif::ProgressStyle::with_template(
+        "{spinner} [{elapsed_precise}] {wide_bar} {percent:>3}% {msg}, ETA {eta}",
+    ) {
+        bar.set_style(style.progress_chars("=> "));
+    }
+    bar
+}
+
 /// Key-value metadata of every part file.
 pub fn metadata(sweep: &Sweep) -> Vec<(String, String)> {
     vec![
@@ -278,7 +294,7 @@ pub fn execute(
             }
         );
     }
-    let bar = experiment::progress_bar(steps_to_run, options.quiet);
+    let bar = progress_bar(steps_to_run, options.quiet);
     let metadata = metadata(sweep);
     let mut ran = 0u64;
     let mut parts_written = 0usize;
