@@ -378,7 +378,7 @@ pub fn estimate(sweep: &Sweep, specs: &[Arc<Spec>], shard: Shard) -> Result<Esti
         samples: Vec<u64>,
     }
     /// Sample runs per group, spread evenly over the group's configurations.
-    const SAMPLES: u64 = 4;
+    const SAMPLES: u64 = 8;
     let mut groups: Vec<Group> = Vec::new();
     let seeds = u64::from(sweep.seeds);
     let group_of = |groups: &[Group], r: &super::file::Resolved| {
