@@ -1,15 +1,429 @@
-//! `mbmf bench`: the headline speed figures in about a minute, for users checking their machine.
-//! (Being written.)
+//! `mbmf bench`: the headline speed figures in about a minute, for users checking their machine,
+//! and (`--growth`) how time per step and memory per run grow with the number of states.
+//!
+//! Every figure is a median over a few timed windows of steps on copies of a batch brought to
+//! the phase being measured, so setting up is never timed. Inputs come from a fixed seed. Timings
+//! depend on what else the machine is doing: close other work for stable figures.
 
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::Instant;
+
+use anyhow::{Context, anyhow};
 use clap::Args;
 
-use crate::cli::{Failure, usage};
+use crate::batch::{Batch, RunConfig};
+use crate::cli::{Failure, runtime, usage};
+use crate::env::{self, Spec};
+use crate::params::{Controller, Params};
+use crate::plot::{LineChart, Series, line_chart};
+
+/// Master seed of every input of `mbmf bench`.
+pub const SEED: u64 = 20_200_831;
 
 /// `mbmf bench`.
 #[derive(Debug, Clone, Args)]
-pub struct BenchArgs {}
+pub struct BenchArgs {
+    /// Also measure growth on grid:N worlds (100 to --growth-max states, all four controllers):
+    /// writes growth.csv and log-log charts (growth_time, growth_memory) into --out. A few
+    /// minutes more.
+    #[arg(long)]
+    pub growth: bool,
+    /// Largest grid of the growth study, in states.
+    #[arg(long, default_value_t = 10_000)]
+    pub growth_max: usize,
+    /// Folder for the growth study's CSV and charts.
+    #[arg(long, default_value = "out/bench")]
+    pub out: PathBuf,
+}
 
 /// Runs `mbmf bench`.
-pub fn command(_args: &BenchArgs) -> Result<(), Failure> {
-    Err(usage(anyhow::anyhow!("mbmf bench is not implemented yet")))
+pub fn command(args: &BenchArgs) -> Result<(), Failure> {
+    if args.growth && !(100..=env::grid::MAX_STATES).contains(&args.growth_max) {
+        return Err(usage(anyhow!(
+            "--growth-max must be between 100 and {} states, not {}",
+            env::grid::MAX_STATES,
+            args.growth_max
+        )));
+    }
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    println!(
+        "mbmf bench: {} thread(s) available; medians of timed windows, setup not timed",
+        cores
+    );
+    headline(cores).map_err(runtime)?;
+    if args.growth {
+        let sizes = growth_sizes(args.growth_max);
+        let points = growth(&sizes, &GROWTH_CONTROLLERS).map_err(runtime)?;
+        write_growth(&points, &args.out).map_err(runtime)?;
+    }
+    Ok(())
+}
+
+/// Steps per second of `runs` runs of `params` on `spec`, timed on `threads` threads over the
+/// `window` steps that end the run (learning has settled), median of `repeats` windows.
+pub fn steady_rate(
+    spec: &Arc<Spec>,
+    params: Params,
+    runs: usize,
+    threads: &[usize],
+    window: u64,
+    repeats: usize,
+) -> anyhow::Result<Vec<f64>> {
+    let total = u64::from(params.babbling) + u64::from(params.steps);
+    let mut batch = Batch::new(Arc::clone(spec), configs(params, runs))?;
+    let all = pool(std::thread::available_parallelism().map_or(1, |n| n.get()))?;
+    all.install(|| batch.advance(total.saturating_sub(window)));
+    let window = window.min(total);
+    threads
+        .iter()
+        .map(|&t| Ok(median_rate(&batch, &pool(t)?, window, repeats)))
+        .collect()
+}
+
+/// `runs` runs of `params` with run indices 0.. under [`SEED`].
+pub fn configs(params: Params, runs: usize) -> Vec<RunConfig> {
+    (0..runs as u64)
+        .map(|run_index| RunConfig {
+            params,
+            seed: SEED,
+            run_index,
+        })
+        .collect()
+}
+
+/// Median agent-steps per second of `window` steps of clones of `template` on `pool`.
+fn median_rate(template: &Batch, pool: &rayon::ThreadPool, window: u64, repeats: usize) -> f64 {
+    let mut rates: Vec<f64> = (0..repeats.max(1))
+        .map(|_| {
+            let mut batch = template.clone();
+            let before: u64 = batch.cursors().iter().map(|c| c.t).sum();
+            let started = Instant::now();
+            pool.install(|| batch.advance(window));
+            let seconds = started.elapsed().as_secs_f64();
+            let after: u64 = batch.cursors().iter().map(|c| c.t).sum();
+            (after - before) as f64 / seconds.max(1e-9)
+        })
+        .collect();
+    rates.sort_by(f64::total_cmp);
+    rates[rates.len() / 2]
+}
+
+fn pool(threads: usize) -> anyhow::Result<rayon::ThreadPool> {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|e| anyhow!("cannot start {threads} worker threads: {e}"))
+}
+
+/// Paper defaults for `controller` on tidy1.
+fn tidy1_params(controller: Controller) -> Params {
+    Params {
+        controller,
+        ..Params::default()
+    }
+}
+
+fn headline(cores: usize) -> anyhow::Result<()> {
+    let spec = Arc::new(env::load("tidy1")?);
+    println!();
+    println!("tidy1, steady state (the last 1,000 of 11,000 steps), one thread:");
+    println!("  {:<10} {:>6} {:>16}", "controller", "runs", "steps/s");
+    // Fewer runs for MB, whose steps cost ~20x more: each window stays under a second.
+    for (controller, runs) in [
+        (Controller::Mf, 1024),
+        (Controller::Mb, 32),
+        (Controller::Rnd, 64),
+        (Controller::Ec, 512),
+    ] {
+        let rate = steady_rate(&spec, tidy1_params(controller), runs, &[1], 1000, 5)?[0];
+        println!(
+            "  {:<10} {:>6} {:>16}",
+            controller.name(),
+            runs,
+            thousands(rate)
+        );
+    }
+
+    let mut threads = vec![1, 2];
+    if cores > 2 {
+        threads.push(cores);
+    }
+    let runs = 2048;
+    println!();
+    println!("ec on tidy1, steady state, {runs} runs, by thread count:");
+    let rates = steady_rate(&spec, tidy1_params(Controller::Ec), runs, &threads, 500, 5)?;
+    for (t, rate) in threads.iter().zip(&rates) {
+        println!(
+            "  {t:>3} thread(s) {:>16} steps/s  ({:.2}x one thread)",
+            thousands(*rate),
+            rate / rates[0]
+        );
+    }
+
+    println!();
+    let memory = memory_per_instance(&spec, 10_000)?;
+    println!(
+        "memory: 10,000 tidy1 runs hold {:.1} KiB of state each{}",
+        memory.layout_bytes as f64 / 1024.0,
+        match memory.rss_bytes {
+            Some(rss) => format!(
+                "; resident memory grew by {:.1} KiB per run",
+                rss / 1024.0
+            ),
+            None => String::new(),
+        }
+    );
+    Ok(())
+}
+
+/// Memory of one run of a batch.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Memory {
+    /// Bytes of state per run by the batch's own account ([`Batch::state_bytes`]).
+    pub layout_bytes: usize,
+    /// Growth of the resident set per run when a batch is created and all its pages touched
+    /// (Linux only).
+    pub rss_bytes: Option<f64>,
+}
+
+/// Memory per run of a batch of `runs` paper-default `ec` runs on `spec`.
+pub fn memory_per_instance(spec: &Arc<Spec>, runs: usize) -> anyhow::Result<Memory> {
+    let params = Params {
+        controller: Controller::Ec,
+        steps: crate::params::default_steps(&spec.name),
+        ..Params::default()
+    };
+    let before = resident_bytes();
+    let fresh = Batch::new(Arc::clone(spec), configs(params, runs))?;
+    // Zeroed arrays are not resident until written: a clone writes every page.
+    let batch = fresh.clone();
+    drop(fresh);
+    let after = resident_bytes();
+    let layout_bytes = batch.state_bytes() / runs.max(1);
+    Ok(Memory {
+        layout_bytes,
+        rss_bytes: before
+            .zip(after)
+            .map(|(b, a)| a.saturating_sub(b) as f64 / runs.max(1) as f64),
+    })
+}
+
+/// The process's resident set size, from `/proc/self/status` (None elsewhere than Linux).
+pub fn resident_bytes() -> Option<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmRSS:"))?;
+    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib * 1024)
+}
+
+/// Controllers of the growth study.
+pub const GROWTH_CONTROLLERS: [Controller; 4] = [
+    Controller::Mf,
+    Controller::Mb,
+    Controller::Rnd,
+    Controller::Ec,
+];
+
+/// Grid sizes of the growth study: about three per decade from 100 to `max` states.
+pub fn growth_sizes(max: usize) -> Vec<usize> {
+    let mut sizes = Vec::new();
+    let mut decade = 100;
+    while decade <= max {
+        for n in [decade, decade * 2, decade * 5] {
+            if n <= max {
+                sizes.push(n);
+            }
+        }
+        decade *= 10;
+    }
+    if sizes.last() != Some(&max) {
+        sizes.push(max);
+    }
+    sizes
+}
+
+/// One point of the growth study.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GrowthPoint {
+    /// States of the grid world.
+    pub states: usize,
+    /// The controller.
+    pub controller: Controller,
+    /// Mean seconds per agent-step over the timed steps.
+    pub seconds_per_step: f64,
+    /// Bytes of state per run.
+    pub bytes_per_run: usize,
+}
+
+/// Steps timed per run in the growth study: the 1,000 babbling steps and the first 1,000 of the
+/// experiment.
+pub const GROWTH_STEPS: u64 = 2_000;
+/// Runs per point of the growth study.
+pub const GROWTH_RUNS: usize = 4;
+
+/// Time per step (first [`GROWTH_STEPS`] steps, one thread) and memory per run on `grid:N` for
+/// each size and controller.
+pub fn growth(sizes: &[usize], controllers: &[Controller]) -> anyhow::Result<Vec<GrowthPoint>> {
+    let one = pool(1)?;
+    let mut points = Vec::new();
+    println!();
+    println!(
+        "growth on grid:N, first {GROWTH_STEPS} steps (babbling included), {GROWTH_RUNS} runs, one thread:"
+    );
+    println!(
+        "  {:>7} {:<10} {:>14} {:>16}",
+        "states", "controller", "us per step", "KiB per run"
+    );
+    for &n in sizes {
+        let spec = Arc::new(env::grid::build(n).map_err(|e| anyhow!(e))?);
+        for &controller in controllers {
+            let params = Params {
+                controller,
+                ..Params::default()
+            };
+            // A clone has written every page, so the timed steps take no page faults.
+            let mut batch = Batch::new(Arc::clone(&spec), configs(params, GROWTH_RUNS))?.clone();
+            let bytes_per_run = batch.state_bytes() / GROWTH_RUNS;
+            let started = Instant::now();
+            one.install(|| batch.advance(GROWTH_STEPS));
+            let seconds = started.elapsed().as_secs_f64();
+            let steps: u64 = batch.cursors().iter().map(|c| c.t).sum();
+            let point = GrowthPoint {
+                states: n,
+                controller,
+                seconds_per_step: seconds / steps.max(1) as f64,
+                bytes_per_run,
+            };
+            println!(
+                "  {:>7} {:<10} {:>14.3} {:>16.1}",
+                n,
+                controller.name(),
+                point.seconds_per_step * 1e6,
+                point.bytes_per_run as f64 / 1024.0
+            );
+            points.push(point);
+        }
+    }
+    Ok(points)
+}
+
+/// Writes `growth.csv` and the log-log charts `growth_time` and `growth_memory` into `out`.
+pub fn write_growth(points: &[GrowthPoint], out: &Path) -> anyhow::Result<()> {
+    std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
+    let mut csv = String::from("states,controller,us_per_step,steps_per_s,bytes_per_run\n");
+    for p in points {
+        csv.push_str(&format!(
+            "{},{},{:.4},{:.0},{}\n",
+            p.states,
+            p.controller.name(),
+            p.seconds_per_step * 1e6,
+            1.0 / p.seconds_per_step,
+            p.bytes_per_run
+        ));
+    }
+    let csv_path = out.join("growth.csv");
+    std::fs::write(&csv_path, csv)
+        .with_context(|| format!("cannot write {}", csv_path.display()))?;
+    let series_of = |y: &dyn Fn(&GrowthPoint) -> f64| -> Vec<Series> {
+        GROWTH_CONTROLLERS
+            .iter()
+            .filter_map(|&c| {
+                let mine: Vec<&GrowthPoint> = points.iter().filter(|p| p.controller == c).collect();
+                (!mine.is_empty()).then(|| Series {
+                    label: c.name().to_uppercase(),
+                    x: mine.iter().map(|p| p.states as f64).collect(),
+                    y: mine.iter().map(|p| y(p)).collect(),
+                    band: None,
+                })
+            })
+            .collect()
+    };
+    let time = LineChart {
+        title: format!("Time per step on grid:N (first {GROWTH_STEPS} steps, one thread)"),
+        x_label: "states".into(),
+        y_label: "microseconds per step".into(),
+        series: series_of(&|p| p.seconds_per_step * 1e6),
+        log_x: true,
+        log_y: true,
+    };
+    let mut written = line_chart(&time, &out.join("growth_time"))?;
+    // Every controller allocates both experts' tables, so memory does not depend on it.
+    let mut memory_series = series_of(&|p| p.bytes_per_run as f64 / 1024.0);
+    memory_series.truncate(1);
+    if let Some(s) = memory_series.first_mut() {
+        s.label = "every controller".into();
+    }
+    let memory = LineChart {
+        title: "Memory per run on grid:N".into(),
+        x_label: "states".into(),
+        y_label: "KiB of state per run".into(),
+        series: memory_series,
+        log_x: true,
+        log_y: true,
+    };
+    written.extend(line_chart(&memory, &out.join("growth_memory"))?);
+    println!();
+    println!("wrote {}", csv_path.display());
+    for path in written {
+        println!("wrote {}", path.display());
+    }
+    Ok(())
+}
+
+/// `1234567.8` as `1,234,568`.
+fn thousands(x: f64) -> String {
+    let digits = format!("{:.0}", x.max(0.0));
+    let mut out = String::new();
+    for (i, c) in digits.chars().enumerate() {
+        if i > 0 && (digits.len() - i).is_multiple_of(3) {
+            out.push(',');
+        }
+        out.push(c);
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn thousands_groups_digits_by_three() {
+        assert_eq!(thousands(0.0), "0");
+        assert_eq!(thousands(999.4), "999");
+        assert_eq!(thousands(1_234_567.8), "1,234,568");
+    }
+
+    #[test]
+    fn growth_sizes_take_three_steps_per_decade_and_end_at_the_maximum() {
+        assert_eq!(
+            growth_sizes(10_000),
+            vec![100, 200, 500, 1000, 2000, 5000, 10_000]
+        );
+        assert_eq!(growth_sizes(300), vec![100, 200, 300]);
+    }
+
+    #[test]
+    fn a_tidy1_run_holds_under_64_kib_of_state() {
+        let spec = Arc::new(env::load("tidy1").unwrap());
+        let memory = memory_per_instance(&spec, 16).unwrap();
+        assert!(memory.layout_bytes < 64 * 1024, "{memory:?}");
+        // q_mf, q_mb and both averaged distributions alone: 4 x 112 x 7 doubles.
+        assert!(memory.layout_bytes > 4 * 112 * 7 * 8, "{memory:?}");
+    }
+
+    #[test]
+    fn timed_windows_count_every_step_of_every_run() {
+        let spec = Arc::new(env::load("tidy1").unwrap());
+        let params = Params {
+            controller: Controller::Mf,
+            steps: 200,
+            babbling: 100,
+            ..Params::default()
+        };
+        let rates = steady_rate(&spec, params, 3, &[1, 2], 50, 1).unwrap();
+        assert_eq!(rates.len(), 2);
+        assert!(rates.iter().all(|r| r.is_finite() && *r > 0.0), "{rates:?}");
+    }
 }

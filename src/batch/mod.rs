@@ -174,6 +174,7 @@ pub struct Batch {
     outcome_count: Array2<u16>,
     outcome_reward: Array2<f64>,
     known: Array2<bool>,
+    vi_best: Array2<f64>,
     scratch: Array2<f64>,
     rngs: Vec<Xoshiro256PlusPlus>,
     cursors: Vec<Cursor>,
@@ -273,6 +274,7 @@ impl Batch {
             outcome_count: Array2::zeros((runs, n_outcomes)),
             outcome_reward: Array2::zeros((runs, n_outcomes)),
             known: Array2::from_elem((runs, n_s), false),
+            vi_best: Array2::from_elem((runs, n_s), f64::NAN),
             scratch: Array2::zeros((runs, 2 * n_a)),
             rngs,
             cursors,
@@ -287,31 +289,39 @@ impl Batch {
     /// Bytes of state the batch holds, all runs together: every per-run array, RNG, cursor,
     /// accumulator, configuration and checkpoint row (the shared [`Spec`] is not counted).
     pub fn state_bytes(&self) -> usize {
+        self.state_layout().iter().map(|&(_, bytes)| bytes).sum()
+    }
+
+    /// [`state_bytes`](Batch::state_bytes) array by array: (name, bytes for all runs).
+    pub fn state_layout(&self) -> Vec<(&'static str, usize)> {
         use std::mem::size_of_val;
         fn bytes<T, D: ndarray::Dimension>(a: &ndarray::Array<T, D>) -> usize {
             a.len() * std::mem::size_of::<T>()
         }
-        bytes(&self.q_mf)
-            + bytes(&self.q_mb)
-            + bytes(&self.pavg_mf)
-            + bytes(&self.pavg_mb)
-            + bytes(&self.cost_mf)
-            + bytes(&self.cost_mb)
-            + bytes(&self.visited)
-            + bytes(&self.bonus)
-            + bytes(&self.ring)
-            + bytes(&self.ring_len)
-            + bytes(&self.ring_pos)
-            + bytes(&self.outcome_count)
-            + bytes(&self.outcome_reward)
-            + bytes(&self.known)
-            + bytes(&self.scratch)
-            + size_of_val(self.rngs.as_slice())
-            + size_of_val(self.cursors.as_slice())
-            + size_of_val(self.stats.as_slice())
-            + size_of_val(self.series.as_slice())
-            + size_of_val(self.series_start.as_slice())
-            + size_of_val(self.configs.as_slice())
+        vec![
+            ("q_mf", bytes(&self.q_mf)),
+            ("q_mb", bytes(&self.q_mb)),
+            ("pavg_mf", bytes(&self.pavg_mf)),
+            ("pavg_mb", bytes(&self.pavg_mb)),
+            ("cost_mf", bytes(&self.cost_mf)),
+            ("cost_mb", bytes(&self.cost_mb)),
+            ("visited", bytes(&self.visited)),
+            ("bonus", bytes(&self.bonus)),
+            ("ring", bytes(&self.ring)),
+            ("ring_len", bytes(&self.ring_len)),
+            ("ring_pos", bytes(&self.ring_pos)),
+            ("outcome_count", bytes(&self.outcome_count)),
+            ("outcome_reward", bytes(&self.outcome_reward)),
+            ("known", bytes(&self.known)),
+            ("vi_best", bytes(&self.vi_best)),
+            ("scratch", bytes(&self.scratch)),
+            ("rngs", size_of_val(self.rngs.as_slice())),
+            ("cursors", size_of_val(self.cursors.as_slice())),
+            ("stats", size_of_val(self.stats.as_slice())),
+            ("series", size_of_val(self.series.as_slice())),
+            ("series_start", size_of_val(self.series_start.as_slice())),
+            ("configs", size_of_val(self.configs.as_slice())),
+        ]
     }
 
     /// Number of runs.
@@ -448,6 +458,7 @@ impl Batch {
             n_o,
         );
         let mut known = rows(self.known.as_slice_mut().expect("standard layout"), n_s);
+        let mut vi_best = rows(self.vi_best.as_slice_mut().expect("standard layout"), n_s);
         let mut scratch = rows(
             self.scratch.as_slice_mut().expect("standard layout"),
             2 * n_a,
@@ -480,6 +491,7 @@ impl Batch {
                     count: count.next().expect("one row per run"),
                     reward: reward.next().expect("one row per run"),
                     known: known.next().expect("one row per run"),
+                    best: vi_best.next().expect("one row per run"),
                 },
                 scratch: scratch.next().expect("one row per run"),
                 rng,

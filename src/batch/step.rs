@@ -193,7 +193,8 @@ fn decide(spec: &Spec, params: &Params, run: &mut RunView<'_>, s: usize, babblin
     }
     if controller.runs_mb() && (choice.use_mb || both) {
         let started = wallclock.then(Instant::now);
-        let report = run.model.value_iteration(
+        // Only value iteration writes the MB's Q table, so its cached row maxima stay valid.
+        let report = run.model.value_iteration_cached(
             spec,
             run.q_mb,
             params.gamma_mb,

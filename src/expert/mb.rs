@@ -22,6 +22,9 @@ pub struct Model<'a> {
     pub reward: &'a mut [f64],
     /// Per state, whether some learned transition starts there (the states VI sweeps).
     pub known: &'a mut [bool],
+    /// Per state, max_b Q(s, b) of the MB's Q table as value iteration last left it, or NaN
+    /// where not computed yet (see [`Model::value_iteration_cached`]).
+    pub best: &'a mut [f64],
 }
 
 /// What one value-iteration call did.
@@ -36,6 +39,12 @@ pub struct ViReport {
 }
 
 impl Model<'_> {
+    /// Marks every cached row maximum unknown: needed after changing the Q table given to
+    /// [`value_iteration_cached`](Model::value_iteration_cached) by other means.
+    pub fn forget_row_maxima(&mut self) {
+        self.best.fill(f64::NAN);
+    }
+
     /// Records one execution of (s, a) that ended in environment outcome `outcome` with reward
     /// `r`. `window_cap` is the ring stride of the batch, `window_n` this run's N <= `window_cap`.
     #[inline]
@@ -97,7 +106,26 @@ impl Model<'_> {
     /// Q(s,a) = sum_s' T(s,a,s') (R(s,a) + gamma * max_b Q(s',b)), the goal contributing no
     /// future value. Stops when a sweep's summed |dQ| is below `epsilon`, or after `max_sweeps`.
     pub fn value_iteration(
-        &self,
+        &mut self,
+        spec: &Spec,
+        q: &mut [f64],
+        gamma: f64,
+        epsilon: f64,
+        max_sweeps: u32,
+    ) -> ViReport {
+        self.best.fill(f64::NAN);
+        self.value_iteration_cached(spec, q, gamma, epsilon, max_sweeps)
+    }
+
+    /// [`value_iteration`](Model::value_iteration) that trusts the row maxima in `best` from the
+    /// previous call instead of recomputing them: the engine's path, where only value iteration
+    /// ever writes the MB's Q table.
+    ///
+    /// Every entry of `best` must be NaN (unknown) or the maximum of its row of `q` as
+    /// `value_iteration` computes it; each call leaves them so. Whoever changes `q` otherwise
+    /// must call [`forget_row_maxima`](Model::forget_row_maxima) (or use `value_iteration`).
+    pub fn value_iteration_cached(
+        &mut self,
         spec: &Spec,
         q: &mut [f64],
         gamma: f64,
@@ -108,37 +136,81 @@ impl Model<'_> {
         let goal = spec.goal as usize;
         let term_ops = 1 + n_actions as u64;
         let mut report = ViReport::default();
+        // (s, a, s') terms evaluated, over all sweeps.
+        let mut terms: u64 = 0;
+        // `best[s]` caches max_b Q(s, b), so a term reads one value instead of a row. It is exact:
+        // a row only changes while its own state is swept, and `best` is refreshed from the row
+        // (with the same fold) whenever the row may have changed, before anyone reads it.
+        let best = &mut *self.best;
         loop {
             let mut delta = 0.0;
             for s in 0..spec.n_states {
                 if !self.known[s] {
                     continue;
                 }
+                let row = s * n_actions..(s + 1) * n_actions;
+                // Some Q(s, .) changed since best[s] was last refreshed.
+                let mut stale = false;
                 for a in 0..n_actions {
                     let sa = s * n_actions + a;
                     let kept = self.ring_len[sa];
                     if kept == 0 {
                         continue;
                     }
-                    let n = f64::from(kept);
-                    let r_sa = self.expected_reward(spec, sa);
-                    let mut value = 0.0;
-                    for o in spec.outcomes(sa) {
-                        let c = self.count[o];
-                        if c == 0 {
-                            continue;
-                        }
-                        let next = spec.outcome_state[o] as usize;
+                    let outcomes = spec.outcomes(sa);
+                    let first = outcomes.start;
+                    let value = if outcomes.len() == 1 && self.count[first] == kept {
+                        // A deterministic pair: T = kept / kept = 1 exactly, so the general
+                        // formula below reduces to these operations, bit for bit.
+                        let r_sa = 0.0 + self.reward[first];
+                        let next = spec.outcome_state[first] as usize;
                         let future = if next == goal {
                             0.0
                         } else {
-                            max_of(&q[next * n_actions..(next + 1) * n_actions])
+                            if next == s && stale {
+                                best[s] = max_of(&q[row.clone()]);
+                                stale = false;
+                            }
+                            row_max(best, q, next, n_actions)
                         };
-                        value += f64::from(c) / n * (r_sa + gamma * future);
-                        report.ops += term_ops;
-                    }
+                        terms += 1;
+                        0.0 + (r_sa + gamma * future)
+                    } else {
+                        let n = f64::from(kept);
+                        let mut r_sa = 0.0;
+                        for o in outcomes.clone() {
+                            let c = self.count[o];
+                            if c > 0 {
+                                r_sa += f64::from(c) / n * self.reward[o];
+                            }
+                        }
+                        let mut value = 0.0;
+                        for o in outcomes {
+                            let c = self.count[o];
+                            if c == 0 {
+                                continue;
+                            }
+                            let next = spec.outcome_state[o] as usize;
+                            let future = if next == goal {
+                                0.0
+                            } else {
+                                if next == s && stale {
+                                    best[s] = max_of(&q[row.clone()]);
+                                    stale = false;
+                                }
+                                row_max(best, q, next, n_actions)
+                            };
+                            value += f64::from(c) / n * (r_sa + gamma * future);
+                            terms += 1;
+                        }
+                        value
+                    };
                     delta += (value - q[sa]).abs();
+                    stale |= value.to_bits() != q[sa].to_bits();
                     q[sa] = value;
+                }
+                if stale {
+                    best[s] = max_of(&q[row]);
                 }
             }
             report.sweeps += 1;
@@ -151,10 +223,26 @@ impl Model<'_> {
                 break;
             }
         }
+        report.ops = terms * term_ops;
         report
     }
 }
 
+/// `best[s]`, computed from row `s` of `q` first if unknown (NaN: `max_of` is never NaN).
+#[inline(always)]
+fn row_max(best: &mut [f64], q: &[f64], s: usize, n_actions: usize) -> f64 {
+    let b = best[s];
+    if b.is_nan() {
+        let m = max_of(&q[s * n_actions..(s + 1) * n_actions]);
+        best[s] = m;
+        m
+    } else {
+        b
+    }
+}
+
+/// Maximum of a row; NaN entries are skipped and an empty or all-NaN row gives -inf, so the
+/// result is never NaN.
 #[inline(always)]
 fn max_of(row: &[f64]) -> f64 {
     row.iter().copied().fold(f64::NEG_INFINITY, f64::max)
@@ -175,6 +263,8 @@ pub struct OwnedModel {
     pub reward: Vec<f64>,
     /// See [`Model::known`].
     pub known: Vec<bool>,
+    /// See [`Model::best`].
+    pub best: Vec<f64>,
 }
 
 impl OwnedModel {
@@ -188,6 +278,7 @@ impl OwnedModel {
             count: vec![0; spec.outcome_state.len()],
             reward: vec![0.0; spec.outcome_state.len()],
             known: vec![false; spec.n_states],
+            best: vec![f64::NAN; spec.n_states],
         }
     }
 
@@ -200,6 +291,7 @@ impl OwnedModel {
             count: &mut self.count,
             reward: &mut self.reward,
             known: &mut self.known,
+            best: &mut self.best,
         }
     }
 }
