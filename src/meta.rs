@@ -1,6 +1,6 @@
 //! The meta-controller (SPEC 4): which expert controls the next action.
 
-use crate::expert::{entropy_bits, normalised_entropy};
+use crate::expert::{entropy_bits, normalise_bits};
 use crate::params::{Controller, Params, Selection};
 
 /// Costs are divided by the larger of the two; when both are 0, by this (SPEC 4, code).
@@ -27,10 +27,31 @@ pub fn expert_values(
     cost_mf: f64,
     cost_mb: f64,
 ) -> (f64, f64) {
-    let bits_mf = entropy_bits(pavg_mf);
-    let bits_mb = entropy_bits(pavg_mb);
+    values_from_bits(
+        params,
+        entropy_bits(pavg_mf),
+        entropy_bits(pavg_mb),
+        pavg_mf.len(),
+        cost_mf,
+        cost_mb,
+    )
+}
+
+/// [`expert_values`] from the two distributions' entropies in bits over `n_actions` actions.
+#[inline]
+fn values_from_bits(
+    params: &Params,
+    bits_mf: f64,
+    bits_mb: f64,
+    n_actions: usize,
+    cost_mf: f64,
+    cost_mb: f64,
+) -> (f64, f64) {
     let (h_mf, h_mb) = if params.normalise_entropy {
-        (normalised_entropy(pavg_mf), normalised_entropy(pavg_mb))
+        (
+            normalise_bits(bits_mf, n_actions),
+            normalise_bits(bits_mb, n_actions),
+        )
     } else {
         (bits_mf, bits_mb)
     };
@@ -72,12 +93,20 @@ pub fn choose(
     cost_mb: f64,
     mut uniform: impl FnMut() -> f64,
 ) -> Choice {
-    let (use_mb, p_mb) = match params.controller {
-        Controller::Mf => (false, 0.0),
-        Controller::Mb => (true, 1.0),
-        Controller::Rnd => (uniform() < 0.5, 0.5),
+    let n = pavg_mf.len();
+    // Each distribution's entropy is computed once and serves the values and the report.
+    let (use_mb, p_mb, chosen_bits) = match params.controller {
+        Controller::Mf => (false, 0.0, entropy_bits(pavg_mf)),
+        Controller::Mb => (true, 1.0, entropy_bits(pavg_mb)),
+        Controller::Rnd => {
+            let use_mb = uniform() < 0.5;
+            let chosen = if use_mb { pavg_mb } else { pavg_mf };
+            (use_mb, 0.5, entropy_bits(chosen))
+        }
         Controller::Ec | Controller::Entropy => {
-            let (v_mf, v_mb) = expert_values(params, pavg_mf, pavg_mb, cost_mf, cost_mb);
+            let bits_mf = entropy_bits(pavg_mf);
+            let bits_mb = entropy_bits(pavg_mb);
+            let (v_mf, v_mb) = values_from_bits(params, bits_mf, bits_mb, n, cost_mf, cost_mb);
             let p_mb = p_mb_softmax(v_mf, v_mb, params.tau);
             let use_mb = match params.selection {
                 Selection::Softmax => uniform() < p_mb,
@@ -89,14 +118,13 @@ pub fn choose(
                     }
                 }
             };
-            (use_mb, p_mb)
+            (use_mb, p_mb, if use_mb { bits_mb } else { bits_mf })
         }
     };
-    let chosen = if use_mb { pavg_mb } else { pavg_mf };
     Choice {
         use_mb,
         p_mb,
-        chosen_entropy: normalised_entropy(chosen),
+        chosen_entropy: normalise_bits(chosen_bits, n),
     }
 }
 

@@ -19,8 +19,16 @@ pub fn softmax_biased(q: &[f64], g: &[u8], bonus: f64, tau: f64, out: &mut [f64]
     }
     let inv_tau = 1.0 / tau;
     let mut sum = 0.0;
+    // Rows often repeat values (untried actions, no-op actions that converge alike): each
+    // distinct argument is exponentiated once. exp(0) = 1 exactly (IEEE 754, C Annex F).
+    let mut memo = Memo::new();
     for o in out.iter_mut() {
-        let e = ((*o - max) * inv_tau).exp();
+        let x = (*o - max) * inv_tau;
+        let e = if x == 0.0 {
+            1.0
+        } else {
+            memo.get_or(x, f64::exp)
+        };
         *o = e;
         sum += e;
     }
@@ -34,9 +42,11 @@ pub fn softmax_biased(q: &[f64], g: &[u8], bonus: f64, tau: f64, out: &mut [f64]
 #[inline]
 pub fn entropy_bits(p: &[f64]) -> f64 {
     let mut h = 0.0;
+    // Equal probabilities give equal terms: each distinct one costs one log2.
+    let mut memo = Memo::new();
     for &x in p {
         if x > 0.0 {
-            h -= x * x.log2();
+            h -= memo.get_or(x, |x| x * x.log2());
         }
     }
     h.max(0.0)
@@ -45,11 +55,68 @@ pub fn entropy_bits(p: &[f64]) -> f64 {
 /// Entropy divided by log2(|A|), clamped to [0, 1] against rounding (SPEC 3.3).
 #[inline]
 pub fn normalised_entropy(p: &[f64]) -> f64 {
-    let n = p.len();
+    normalise_bits(entropy_bits(p), p.len())
+}
+
+/// An entropy of `bits` over `n` actions divided by log2(n), clamped to [0, 1]; 0 when n < 2.
+/// `normalised_entropy(p) == normalise_bits(entropy_bits(p), p.len())`, bit for bit.
+#[inline]
+pub fn normalise_bits(bits: f64, n: usize) -> f64 {
     if n < 2 {
         return 0.0;
     }
-    (entropy_bits(p) / (n as f64).log2()).clamp(0.0, 1.0)
+    (bits / log2_count(n)).clamp(0.0, 1.0)
+}
+
+/// `(n as f64).log2()`, from a table for small n (the same values: the table is built with it).
+#[inline]
+fn log2_count(n: usize) -> f64 {
+    const TABLE_LEN: usize = 64;
+    static TABLE: std::sync::OnceLock<[f64; TABLE_LEN]> = std::sync::OnceLock::new();
+    if n < TABLE_LEN {
+        TABLE.get_or_init(|| std::array::from_fn(|i| (i as f64).log2()))[n]
+    } else {
+        (n as f64).log2()
+    }
+}
+
+/// Results of a pure function for the last few distinct arguments (compared bit for bit), so a
+/// row with repeated values costs one call per distinct value and gives identical results.
+struct Memo {
+    keys: [u64; Memo::CAP],
+    values: [f64; Memo::CAP],
+    len: usize,
+}
+
+impl Memo {
+    const CAP: usize = 8;
+
+    #[inline(always)]
+    fn new() -> Memo {
+        Memo {
+            keys: [0; Memo::CAP],
+            values: [0.0; Memo::CAP],
+            len: 0,
+        }
+    }
+
+    /// `f(x)`, from memory when `x` was seen.
+    #[inline(always)]
+    fn get_or(&mut self, x: f64, f: impl Fn(f64) -> f64) -> f64 {
+        let key = x.to_bits();
+        for i in 0..self.len {
+            if self.keys[i] == key {
+                return self.values[i];
+            }
+        }
+        let value = f(x);
+        if self.len < Memo::CAP {
+            self.keys[self.len] = key;
+            self.values[self.len] = value;
+            self.len += 1;
+        }
+        value
+    }
 }
 
 /// One step of an exponential moving average: `(1 - alpha) * old + alpha * new`.
