@@ -446,16 +446,11 @@ fn min_budgets(data: &Path) -> Result<Vec<MinBudgetRow>> {
     Ok(rows)
 }
 
-/// Significance marks of a p-value.
+/// Significance marks of a p-value, "n.s." when not significant.
 fn stars(p: f64) -> &'static str {
-    if p < 0.001 {
-        "***"
-    } else if p < 0.01 {
-        "**"
-    } else if p < 0.05 {
-        "*"
-    } else {
-        "n.s."
+    match stats::significance_stars(p) {
+        "" => "n.s.",
+        marks => marks,
     }
 }
 

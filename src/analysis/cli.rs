@@ -304,7 +304,7 @@ fn print_comparison(c: &Comparison) {
                 num(p.test.u),
                 pval(p.test.p_value),
                 pval(p.p_holm),
-                stars(p.p_holm).to_owned(),
+                crate::analysis::stats::significance_stars(p.p_holm).to_owned(),
                 format!("{:+.3}", p.test.effect_size),
                 match p.test.method {
                     crate::analysis::stats::Method::Exact => "exact",
@@ -525,18 +525,6 @@ fn pval(p: f64) -> String {
         format!("{p:.2e}")
     } else {
         format!("{p:.4}")
-    }
-}
-
-fn stars(p: f64) -> &'static str {
-    if p < 0.001 {
-        "***"
-    } else if p < 0.01 {
-        "**"
-    } else if p < 0.05 {
-        "*"
-    } else {
-        ""
     }
 }
 

@@ -625,6 +625,19 @@ fn exact_u_pmf(n: usize, m: usize, max_u: usize) -> Vec<f64> {
 // Multiple comparisons
 // ---------------------------------------------------------------------------------------------
 
+/// Conventional significance marks: `***` for p < 0.001, `**` < 0.01, `*` < 0.05, else empty.
+pub fn significance_stars(p: f64) -> &'static str {
+    if p < 0.001 {
+        "***"
+    } else if p < 0.01 {
+        "**"
+    } else if p < 0.05 {
+        "*"
+    } else {
+        ""
+    }
+}
+
 /// Holm–Bonferroni adjusted p-values, in the input order: with the `k` p-values sorted
 /// ascending, the `i`-th (from 0) becomes `max_{j <= i} min(1, (k - j) p_(j))`, so the adjusted
 /// values are monotone in the raw ones and capped at 1. Rejecting where the adjusted value is

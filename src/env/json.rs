@@ -7,6 +7,7 @@
 //! [`EnvFileError`] that names the file, the line (text files) or the state and action (JSON),
 //! the bad value and what would be accepted. No input makes the loader panic.
 
+use crate::error::edit_distance;
 use std::fs;
 use std::io::{self, Write as _};
 use std::path::{Path, PathBuf};
@@ -435,22 +436,6 @@ fn content_lines(text: &str) -> impl Iterator<Item = (usize, Vec<&str>)> {
         let words: Vec<&str> = content.split_whitespace().collect();
         (!words.is_empty()).then_some((i + 1, words))
     })
-}
-
-/// Edit distance between two short words.
-fn edit_distance(a: &str, b: &str) -> usize {
-    let b: Vec<char> = b.chars().collect();
-    let mut row: Vec<usize> = (0..=b.len()).collect();
-    for (i, ca) in a.chars().enumerate() {
-        let mut diagonal = row[0];
-        row[0] = i + 1;
-        for (j, &cb) in b.iter().enumerate() {
-            let substitute = diagonal + usize::from(ca != cb);
-            diagonal = row[j + 1];
-            row[j + 1] = substitute.min(row[j] + 1).min(diagonal + 1);
-        }
-    }
-    row[b.len()]
 }
 
 /// The keyword of `known` closest to `word` (case-insensitively).

@@ -1,6 +1,7 @@
 //! The parameters a sweep file may set: one key per `mbmf run` flag (snake or kebab case), each
 //! with its kind of value, and how a value is applied to a run's [`Params`].
 
+use crate::error::edit_distance;
 use std::fmt;
 
 use crate::params::{Controller, CostModel, Interaction, Params, Selection};
@@ -414,21 +415,6 @@ pub fn apply(key: Key, value: &Value, params: &mut Params) {
         Key::Babbling => params.babbling = count,
         Key::Checkpoint => params.checkpoint = count,
     }
-}
-
-/// Levenshtein distance between two short strings.
-pub fn edit_distance(a: &str, b: &str) -> usize {
-    let b: Vec<char> = b.chars().collect();
-    let mut prev: Vec<usize> = (0..=b.len()).collect();
-    for (i, ca) in a.chars().enumerate() {
-        let mut cur = vec![i + 1; b.len() + 1];
-        for (j, cb) in b.iter().enumerate() {
-            let sub = prev[j] + usize::from(ca != *cb);
-            cur[j + 1] = sub.min(prev[j + 1] + 1).min(cur[j] + 1);
-        }
-        prev = cur;
-    }
-    prev[b.len()]
 }
 
 /// The candidate closest to `word`, if it is close enough to be a plausible typo.
