@@ -167,10 +167,7 @@ fn headline(cores: usize) -> anyhow::Result<()> {
         "memory: 10,000 tidy1 runs hold {:.1} KiB of state each{}",
         memory.layout_bytes as f64 / 1024.0,
         match memory.rss_bytes {
-            Some(rss) => format!(
-                "; resident memory grew by {:.1} KiB per run",
-                rss / 1024.0
-            ),
+            Some(rss) => format!("; resident memory grew by {:.1} KiB per run", rss / 1024.0),
             None => String::new(),
         }
     );
@@ -254,26 +251,32 @@ pub struct GrowthPoint {
     pub seconds_per_step: f64,
     /// Bytes of state per run.
     pub bytes_per_run: usize,
+    /// Mean reward per run (0: the goal was never reached, so MB's values stayed 0).
+    pub reward: f64,
+    /// Mean number of states the MB expert knows at the end (what its value iteration sweeps).
+    pub known_states: f64,
+    /// Mean value-iteration sweeps per call.
+    pub sweeps_per_call: f64,
 }
 
-/// Steps timed per run in the growth study: the 1,000 babbling steps and the first 1,000 of the
-/// experiment.
-pub const GROWTH_STEPS: u64 = 2_000;
+/// Steps timed per run in the growth study: whole runs of the paper's length (1,000 babbling
+/// steps and 10,000 experiment steps).
+pub const GROWTH_STEPS: u64 = 11_000;
 /// Runs per point of the growth study.
 pub const GROWTH_RUNS: usize = 4;
 
-/// Time per step (first [`GROWTH_STEPS`] steps, one thread) and memory per run on `grid:N` for
-/// each size and controller.
+/// Time per step (whole runs of [`GROWTH_STEPS`] steps, one thread) and memory per run on
+/// `grid:N` for each size and controller.
 pub fn growth(sizes: &[usize], controllers: &[Controller]) -> anyhow::Result<Vec<GrowthPoint>> {
     let one = pool(1)?;
     let mut points = Vec::new();
     println!();
     println!(
-        "growth on grid:N, first {GROWTH_STEPS} steps (babbling included), {GROWTH_RUNS} runs, one thread:"
+        "growth on grid:N, whole runs ({GROWTH_STEPS} steps), {GROWTH_RUNS} runs, one thread:"
     );
     println!(
-        "  {:>7} {:<10} {:>14} {:>16}",
-        "states", "controller", "us per step", "KiB per run"
+        "  {:>7} {:<10} {:>12} {:>12} {:>10} {:>10} {:>12}",
+        "states", "controller", "us/step", "KiB/run", "reward", "known", "sweeps/VI"
     );
     for &n in sizes {
         let spec = Arc::new(env::grid::build(n).map_err(|e| anyhow!(e))?);
@@ -289,18 +292,31 @@ pub fn growth(sizes: &[usize], controllers: &[Controller]) -> anyhow::Result<Vec
             one.install(|| batch.advance(GROWTH_STEPS));
             let seconds = started.elapsed().as_secs_f64();
             let steps: u64 = batch.cursors().iter().map(|c| c.t).sum();
+            let runs = GROWTH_RUNS as f64;
+            let stats = batch.stats();
+            let vi_calls: u64 = stats.iter().map(|s| s.vi_calls).sum();
+            let vi_sweeps: u64 = stats.iter().map(|s| s.vi_sweeps).sum();
             let point = GrowthPoint {
                 states: n,
                 controller,
                 seconds_per_step: seconds / steps.max(1) as f64,
                 bytes_per_run,
+                reward: stats.iter().map(|s| s.total_reward).sum::<f64>() / runs,
+                known_states: (0..GROWTH_RUNS)
+                    .map(|r| batch.known_states(r) as f64)
+                    .sum::<f64>()
+                    / runs,
+                sweeps_per_call: vi_sweeps as f64 / vi_calls.max(1) as f64,
             };
             println!(
-                "  {:>7} {:<10} {:>14.3} {:>16.1}",
+                "  {:>7} {:<10} {:>12.3} {:>12.1} {:>10.1} {:>10.0} {:>12.2}",
                 n,
                 controller.name(),
                 point.seconds_per_step * 1e6,
-                point.bytes_per_run as f64 / 1024.0
+                point.bytes_per_run as f64 / 1024.0,
+                point.reward,
+                point.known_states,
+                point.sweeps_per_call
             );
             points.push(point);
         }
@@ -311,15 +327,20 @@ pub fn growth(sizes: &[usize], controllers: &[Controller]) -> anyhow::Result<Vec
 /// Writes `growth.csv` and the log-log charts `growth_time` and `growth_memory` into `out`.
 pub fn write_growth(points: &[GrowthPoint], out: &Path) -> anyhow::Result<()> {
     std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
-    let mut csv = String::from("states,controller,us_per_step,steps_per_s,bytes_per_run\n");
+    let mut csv = String::from(
+        "states,controller,us_per_step,steps_per_s,bytes_per_run,reward,known_states,sweeps_per_vi\n",
+    );
     for p in points {
         csv.push_str(&format!(
-            "{},{},{:.4},{:.0},{}\n",
+            "{},{},{:.4},{:.0},{},{:.2},{:.1},{:.3}\n",
             p.states,
             p.controller.name(),
             p.seconds_per_step * 1e6,
             1.0 / p.seconds_per_step,
-            p.bytes_per_run
+            p.bytes_per_run,
+            p.reward,
+            p.known_states,
+            p.sweeps_per_call
         ));
     }
     let csv_path = out.join("growth.csv");
@@ -340,7 +361,7 @@ pub fn write_growth(points: &[GrowthPoint], out: &Path) -> anyhow::Result<()> {
             .collect()
     };
     let time = LineChart {
-        title: format!("Time per step on grid:N (first {GROWTH_STEPS} steps, one thread)"),
+        title: format!("Time per step on grid:N (whole {GROWTH_STEPS}-step runs, one thread)"),
         x_label: "states".into(),
         y_label: "microseconds per step".into(),
         series: series_of(&|p| p.seconds_per_step * 1e6),

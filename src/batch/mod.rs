@@ -380,6 +380,12 @@ impl Batch {
         )
     }
 
+    /// Number of states the MB expert of run `r` knows: the start of at least one learned
+    /// transition, so the states its value iteration sweeps (SPEC 3.2).
+    pub fn known_states(&self, r: usize) -> usize {
+        self.known.row(r).iter().filter(|&&k| k).count()
+    }
+
     /// T(s,a,s') of run `r` as a dense `[state, action, next]` array (for tests and inspection).
     pub fn transition_model(&self, r: usize) -> Array3<f64> {
         let spec = &self.spec;
