@@ -62,8 +62,8 @@ fn values_from_bits(
             let scale = cost_mf.max(cost_mb);
             let scale = if scale > 0.0 { scale } else { TINY_COST };
             (
-                -(h_mf + kappa * cost_mf / scale),
-                -(h_mb + kappa * cost_mb / scale),
+                -(h_mf + kappa * (cost_mf / scale)),
+                -(h_mb + kappa * (cost_mb / scale)),
             )
         }
         _ => (-h_mf, -h_mb),
@@ -73,13 +73,8 @@ fn values_from_bits(
 /// Softmax probability of MB over two values: 1 / (1 + exp((v_mf - v_mb) / tau)), overflow-safe.
 #[inline]
 pub fn p_mb_softmax(v_mf: f64, v_mb: f64, tau: f64) -> f64 {
-    let z = (v_mf - v_mb) / tau;
-    if z > 0.0 {
-        let e = (-z).exp();
-        e / (1.0 + e)
-    } else {
-        1.0 / (1.0 + z.exp())
-    }
+    // SPEC 4's literal form: exp overflowing to infinity gives exactly 0, never NaN.
+    1.0 / (1.0 + ((v_mf - v_mb) / tau).exp())
 }
 
 /// The MC's choice in one state. `uniform` draws a number in [0, 1) when a draw is needed: once

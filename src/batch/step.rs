@@ -208,7 +208,11 @@ fn decide(spec: &Spec, params: &Params, run: &mut RunView<'_>, s: usize, babblin
         run.cost_mb[s] = ema(run.cost_mb[s], cost_mb, params.filter_alpha);
         run.stats.vi_calls += 1;
         run.stats.vi_sweeps += u64::from(report.sweeps);
-        run.stats.vi_capped += u64::from(report.capped);
+        // NOTE: `if`, not `+= u64::from(bool)`: rustc 1.95 at opt-level >= 2 miscompiles a
+        // bool-to-integer add whose bool is branched on again (a minimal repro counts 0).
+        if report.capped {
+            run.stats.vi_capped += 1;
+        }
     }
 
     // 5. Decision: each expert the controller runs computes its (biased) softmax and folds it in.
@@ -234,7 +238,9 @@ fn decide(spec: &Spec, params: &Params, run: &mut RunView<'_>, s: usize, babblin
         stats.cost_mf += cost_mf;
         stats.cost_mb += cost_mb;
         stats.decisions += 1;
-        stats.mb_decisions += u64::from(choice.use_mb);
+        if choice.use_mb {
+            stats.mb_decisions += 1;
+        }
         stats.p_mb_sum += choice.p_mb;
         stats.entropy_sum += choice.chosen_entropy;
         run.cursor.window_p_mb += choice.p_mb;

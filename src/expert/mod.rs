@@ -17,13 +17,14 @@ pub fn softmax_biased(q: &[f64], g: &[u8], bonus: f64, tau: f64, out: &mut [f64]
         *o = biased;
         max = max.max(biased);
     }
-    let inv_tau = 1.0 / tau;
     let mut sum = 0.0;
     // Rows often repeat values (untried actions, no-op actions that converge alike): each
     // distinct argument is exponentiated once. exp(0) = 1 exactly (IEEE 754, C Annex F).
     let mut memo = Memo::new();
     for o in out.iter_mut() {
-        let x = (*o - max) * inv_tau;
+        // NOTE: SPEC 3.3's literal arithmetic, exp((v - max) / tau) / sum, so that independent
+        // implementations agree to the last bit.
+        let x = (*o - max) / tau;
         let e = if x == 0.0 {
             1.0
         } else {
@@ -32,9 +33,8 @@ pub fn softmax_biased(q: &[f64], g: &[u8], bonus: f64, tau: f64, out: &mut [f64]
         *o = e;
         sum += e;
     }
-    let inv = 1.0 / sum;
     for o in out.iter_mut() {
-        *o *= inv;
+        *o /= sum;
     }
 }
 
