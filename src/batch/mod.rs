@@ -16,7 +16,7 @@ use rayon::prelude::*;
 
 use crate::env::{Spec, StateId};
 use crate::error::ConfigError;
-use crate::expert::mb::Model;
+use crate::expert::mb::{Model, Predecessors, dirty_words};
 use crate::params::{Interaction, Params};
 
 pub use step::step;
@@ -175,6 +175,9 @@ pub struct Batch {
     outcome_reward: Array2<f64>,
     known: Array2<bool>,
     vi_best: Array2<f64>,
+    vi_dirty: Array2<u64>,
+    vi_terms: Vec<u64>,
+    preds: Arc<Predecessors>,
     scratch: Array2<f64>,
     rngs: Vec<Xoshiro256PlusPlus>,
     cursors: Vec<Cursor>,
@@ -275,6 +278,9 @@ impl Batch {
             outcome_reward: Array2::zeros((runs, n_outcomes)),
             known: Array2::from_elem((runs, n_s), false),
             vi_best: Array2::from_elem((runs, n_s), f64::NAN),
+            vi_dirty: Array2::zeros((runs, dirty_words(&spec))),
+            vi_terms: vec![0; runs],
+            preds: Arc::new(Predecessors::new(&spec)),
             scratch: Array2::zeros((runs, 2 * n_a)),
             rngs,
             cursors,
@@ -314,6 +320,8 @@ impl Batch {
             ("outcome_reward", bytes(&self.outcome_reward)),
             ("known", bytes(&self.known)),
             ("vi_best", bytes(&self.vi_best)),
+            ("vi_dirty", bytes(&self.vi_dirty)),
+            ("vi_terms", size_of_val(self.vi_terms.as_slice())),
             ("scratch", bytes(&self.scratch)),
             ("rngs", size_of_val(self.rngs.as_slice())),
             ("cursors", size_of_val(self.cursors.as_slice())),
@@ -465,6 +473,13 @@ impl Batch {
         );
         let mut known = rows(self.known.as_slice_mut().expect("standard layout"), n_s);
         let mut vi_best = rows(self.vi_best.as_slice_mut().expect("standard layout"), n_s);
+        let words = self.vi_dirty.ncols();
+        let mut vi_dirty = rows(
+            self.vi_dirty.as_slice_mut().expect("standard layout"),
+            words,
+        );
+        let mut vi_terms = self.vi_terms.iter_mut();
+        let preds: &Predecessors = &self.preds;
         let mut scratch = rows(
             self.scratch.as_slice_mut().expect("standard layout"),
             2 * n_a,
@@ -498,6 +513,9 @@ impl Batch {
                     reward: reward.next().expect("one row per run"),
                     known: known.next().expect("one row per run"),
                     best: vi_best.next().expect("one row per run"),
+                    dirty: vi_dirty.next().expect("one row per run"),
+                    active_terms: vi_terms.next().expect("one per run"),
+                    preds,
                 },
                 scratch: scratch.next().expect("one row per run"),
                 rng,

@@ -5,8 +5,62 @@
 //! state-action pair, a ring buffer of the outcomes of its last N executions, how many times each
 //! outcome appears in that window, and the last reward received on it. T(s,a,s') is the window
 //! count over the number kept; outcomes the environment cannot produce are never stored.
+//!
+//! Value iteration is incremental but exact. A pair's new value depends only on its own model
+//! (changed by [`Model::learn`]) and on the row maxima max_b Q(s', b) of its next states, so a
+//! pair none of whose inputs changed since it was last computed would get the same value again,
+//! bit for bit, and add exactly 0 to the sweep's |dQ|. Each sweep therefore recomputes only the
+//! *dirty* pairs (learned since, or with a next state whose row maximum changed since), in the
+//! same ascending order, and charges every term of the model in `ops` as a full sweep does: Q,
+//! the sweep count and the cost are those of sweeping everything (`value_iteration_reference`
+//! in the tests is the plain version they are checked against).
+
+use std::sync::Arc;
 
 use crate::env::Spec;
+
+/// For each state, the state-action pairs that can lead to it (from the environment's outcome
+/// table, so a superset of what a run learns): whose values to recompute when its row maximum
+/// changes. Shared by every run of an environment.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Predecessors {
+    start: Vec<u32>,
+    pairs: Vec<u32>,
+}
+
+impl Predecessors {
+    /// The reverse of `spec`'s outcome table, pairs ascending for each state.
+    pub fn new(spec: &Spec) -> Predecessors {
+        let mut start = vec![0u32; spec.n_states + 1];
+        for &next in &spec.outcome_state {
+            start[next as usize + 1] += 1;
+        }
+        for s in 0..spec.n_states {
+            start[s + 1] += start[s];
+        }
+        let mut fill = start.clone();
+        let mut pairs = vec![0u32; spec.outcome_state.len()];
+        for sa in 0..spec.n_states * spec.n_actions {
+            for o in spec.outcomes(sa) {
+                let next = spec.outcome_state[o] as usize;
+                pairs[fill[next] as usize] = sa as u32;
+                fill[next] += 1;
+            }
+        }
+        Predecessors { start, pairs }
+    }
+
+    /// Pairs that have `s` among their outcomes.
+    #[inline(always)]
+    pub fn of(&self, s: usize) -> &[u32] {
+        &self.pairs[self.start[s] as usize..self.start[s + 1] as usize]
+    }
+}
+
+/// Words of a bit set over the state-action pairs of `spec`.
+pub fn dirty_words(spec: &Spec) -> usize {
+    (spec.n_states * spec.n_actions).div_ceil(64)
+}
 
 /// One run's learned model, as mutable views into the batch's arrays.
 pub struct Model<'a> {
@@ -25,6 +79,12 @@ pub struct Model<'a> {
     /// Per state, max_b Q(s, b) of the MB's Q table as value iteration last left it, or NaN
     /// where not computed yet (see [`Model::value_iteration_cached`]).
     pub best: &'a mut [f64],
+    /// Bit set over pairs ([`dirty_words`] words): the pair must be recomputed at the next sweep.
+    pub dirty: &'a mut [u64],
+    /// Number of outcomes with a non-zero count: the terms one sweep evaluates.
+    pub active_terms: &'a mut u64,
+    /// The environment's predecessor lists.
+    pub preds: &'a Predecessors,
 }
 
 /// What one value-iteration call did.
@@ -39,10 +99,17 @@ pub struct ViReport {
 }
 
 impl Model<'_> {
-    /// Marks every cached row maximum unknown: needed after changing the Q table given to
+    /// Forgets what the incremental value iteration knows about the Q table (row maxima, which
+    /// pairs are up to date): needed after changing the Q table given to
     /// [`value_iteration_cached`](Model::value_iteration_cached) by other means.
     pub fn forget_row_maxima(&mut self) {
         self.best.fill(f64::NAN);
+        self.dirty.fill(u64::MAX);
+    }
+
+    #[inline(always)]
+    fn mark(&mut self, sa: usize) {
+        self.dirty[sa / 64] |= 1 << (sa % 64);
     }
 
     /// Records one execution of (s, a) that ended in environment outcome `outcome` with reward
@@ -66,13 +133,21 @@ impl Model<'_> {
         if (self.ring_len[sa] as usize) < window_n {
             self.ring_len[sa] += 1;
         } else {
-            self.count[first + ring[pos] as usize] -= 1;
+            let old = first + ring[pos] as usize;
+            self.count[old] -= 1;
+            if self.count[old] == 0 {
+                *self.active_terms -= 1;
+            }
         }
         ring[pos] = local;
+        if self.count[outcome] == 0 {
+            *self.active_terms += 1;
+        }
         self.count[outcome] += 1;
         self.ring_pos[sa] = ((pos + 1) % window_n) as u16;
         self.reward[outcome] = r;
         self.known[s] = true;
+        self.mark(sa);
     }
 
     /// T(s,a,s') of a global outcome index (Eq. 1); 0 for untried pairs.
@@ -113,17 +188,18 @@ impl Model<'_> {
         epsilon: f64,
         max_sweeps: u32,
     ) -> ViReport {
-        self.best.fill(f64::NAN);
+        self.forget_row_maxima();
         self.value_iteration_cached(spec, q, gamma, epsilon, max_sweeps)
     }
 
-    /// [`value_iteration`](Model::value_iteration) that trusts the row maxima in `best` from the
-    /// previous call instead of recomputing them: the engine's path, where only value iteration
+    /// [`value_iteration`](Model::value_iteration) that trusts what the previous calls left (the
+    /// row maxima in `best`, the `dirty` pairs): the engine's path, where only value iteration
     /// ever writes the MB's Q table.
     ///
-    /// Every entry of `best` must be NaN (unknown) or the maximum of its row of `q` as
-    /// `value_iteration` computes it; each call leaves them so. Whoever changes `q` otherwise
-    /// must call [`forget_row_maxima`](Model::forget_row_maxima) (or use `value_iteration`).
+    /// Every entry of `best` must be NaN (unknown) or the maximum of its row of `q`, and every
+    /// pair whose value could differ from its entry in `q` must be dirty; [`Model::learn`] and
+    /// each call keep it so. Whoever changes `q` otherwise must call
+    /// [`forget_row_maxima`](Model::forget_row_maxima) (or use `value_iteration`).
     pub fn value_iteration_cached(
         &mut self,
         spec: &Spec,
@@ -133,84 +209,46 @@ impl Model<'_> {
         max_sweeps: u32,
     ) -> ViReport {
         let n_actions = spec.n_actions;
+        let n_pairs = spec.n_states * n_actions;
         let goal = spec.goal as usize;
-        let term_ops = 1 + n_actions as u64;
         let mut report = ViReport::default();
-        // (s, a, s') terms evaluated, over all sweeps.
-        let mut terms: u64 = 0;
-        // `best[s]` caches max_b Q(s, b), so a term reads one value instead of a row. It is exact:
-        // a row only changes while its own state is swept, and `best` is refreshed from the row
-        // (with the same fold) whenever the row may have changed, before anyone reads it.
-        let best = &mut *self.best;
         loop {
             let mut delta = 0.0;
-            for s in 0..spec.n_states {
-                if !self.known[s] {
+            // Ascending over the dirty pairs, re-reading the bit set as it goes: pairs marked
+            // ahead of the cursor are computed in this sweep (as a full sweep would read the new
+            // maximum), pairs marked behind it in the next.
+            let mut next_pair = 0;
+            while let Some(sa) = next_dirty(self.dirty, next_pair) {
+                next_pair = sa + 1;
+                if sa >= n_pairs {
+                    // Padding bits of the last word (set by forget_row_maxima).
+                    self.dirty[sa / 64] &= !(1 << (sa % 64));
                     continue;
                 }
-                let row = s * n_actions..(s + 1) * n_actions;
-                // Some Q(s, .) changed since best[s] was last refreshed.
-                let mut stale = false;
-                for a in 0..n_actions {
-                    let sa = s * n_actions + a;
-                    let kept = self.ring_len[sa];
-                    if kept == 0 {
-                        continue;
-                    }
-                    let outcomes = spec.outcomes(sa);
-                    let first = outcomes.start;
-                    let value = if outcomes.len() == 1 && self.count[first] == kept {
-                        // A deterministic pair: T = kept / kept = 1 exactly, so the general
-                        // formula below reduces to these operations, bit for bit.
-                        let r_sa = 0.0 + self.reward[first];
-                        let next = spec.outcome_state[first] as usize;
-                        let future = if next == goal {
-                            0.0
-                        } else {
-                            if next == s && stale {
-                                best[s] = max_of(&q[row.clone()]);
-                                stale = false;
-                            }
-                            row_max(best, q, next, n_actions)
-                        };
-                        terms += 1;
-                        0.0 + (r_sa + gamma * future)
-                    } else {
-                        let n = f64::from(kept);
-                        let mut r_sa = 0.0;
-                        for o in outcomes.clone() {
-                            let c = self.count[o];
-                            if c > 0 {
-                                r_sa += f64::from(c) / n * self.reward[o];
-                            }
-                        }
-                        let mut value = 0.0;
-                        for o in outcomes {
-                            let c = self.count[o];
-                            if c == 0 {
-                                continue;
-                            }
-                            let next = spec.outcome_state[o] as usize;
-                            let future = if next == goal {
-                                0.0
-                            } else {
-                                if next == s && stale {
-                                    best[s] = max_of(&q[row.clone()]);
-                                    stale = false;
-                                }
-                                row_max(best, q, next, n_actions)
-                            };
-                            value += f64::from(c) / n * (r_sa + gamma * future);
-                            terms += 1;
-                        }
-                        value
-                    };
-                    delta += (value - q[sa]).abs();
-                    stale |= value.to_bits() != q[sa].to_bits();
-                    q[sa] = value;
+                self.dirty[sa / 64] &= !(1 << (sa % 64));
+                let kept = self.ring_len[sa];
+                if kept == 0 {
+                    continue;
                 }
-                if stale {
-                    best[s] = max_of(&q[row]);
+                let s = sa / n_actions;
+                let value = self.pair_value(spec, sa, kept, q, gamma, goal);
+                let old = q[sa];
+                delta += (value - old).abs();
+                if value.to_bits() != old.to_bits() {
+                    let before = row_max(self.best, q, s, n_actions);
+                    q[sa] = value;
+                    let after = max_of(&q[s * n_actions..(s + 1) * n_actions]);
+                    self.best[s] = after;
+                    if after.to_bits() != before.to_bits() {
+                        for &p in self.preds.of(s) {
+                            let p = p as usize;
+                            self.dirty[p / 64] |= 1 << (p % 64);
+                        }
+                    }
+                }
+                if !value.is_finite() {
+                    // A full sweep would meet it again (and a NaN or infinite |dQ|) next time.
+                    self.mark(sa);
                 }
             }
             report.sweeps += 1;
@@ -223,9 +261,73 @@ impl Model<'_> {
                 break;
             }
         }
-        report.ops = terms * term_ops;
+        // Every sweep is charged for every term of the model (SPEC 6), computed or not.
+        report.ops = u64::from(report.sweeps) * *self.active_terms * (1 + n_actions as u64);
         report
     }
+
+    /// Q(s, a) of Eq. 2 for the pair `sa` (tried `kept` times), from the row maxima.
+    #[inline(always)]
+    fn pair_value(
+        &mut self,
+        spec: &Spec,
+        sa: usize,
+        kept: u16,
+        q: &[f64],
+        gamma: f64,
+        goal: usize,
+    ) -> f64 {
+        let n_actions = spec.n_actions;
+        let outcomes = spec.outcomes(sa);
+        let first = outcomes.start;
+        if outcomes.len() == 1 && self.count[first] == kept {
+            // A deterministic pair: T = kept / kept = 1 exactly, so the general formula below
+            // reduces to these operations, bit for bit.
+            let r_sa = 0.0 + self.reward[first];
+            let next = spec.outcome_state[first] as usize;
+            let future = if next == goal {
+                0.0
+            } else {
+                row_max(self.best, q, next, n_actions)
+            };
+            return 0.0 + (r_sa + gamma * future);
+        }
+        let n = f64::from(kept);
+        let mut r_sa = 0.0;
+        for o in outcomes.clone() {
+            let c = self.count[o];
+            if c > 0 {
+                r_sa += f64::from(c) / n * self.reward[o];
+            }
+        }
+        let mut value = 0.0;
+        for o in outcomes {
+            let c = self.count[o];
+            if c == 0 {
+                continue;
+            }
+            let next = spec.outcome_state[o] as usize;
+            let future = if next == goal {
+                0.0
+            } else {
+                row_max(self.best, q, next, n_actions)
+            };
+            value += f64::from(c) / n * (r_sa + gamma * future);
+        }
+        value
+    }
+}
+
+/// The first set bit at or after `from`, if any.
+#[inline(always)]
+fn next_dirty(bits: &[u64], from: usize) -> Option<usize> {
+    let mut w = from / 64;
+    let mut word = *bits.get(w)? & (u64::MAX << (from % 64));
+    while word == 0 {
+        w += 1;
+        word = *bits.get(w)?;
+    }
+    Some(w * 64 + word.trailing_zeros() as usize)
 }
 
 /// `best[s]`, computed from row `s` of `q` first if unknown (NaN: `max_of` is never NaN).
@@ -265,6 +367,12 @@ pub struct OwnedModel {
     pub known: Vec<bool>,
     /// See [`Model::best`].
     pub best: Vec<f64>,
+    /// See [`Model::dirty`].
+    pub dirty: Vec<u64>,
+    /// See [`Model::active_terms`].
+    pub active_terms: u64,
+    /// See [`Model::preds`].
+    pub preds: Arc<Predecessors>,
 }
 
 impl OwnedModel {
@@ -279,6 +387,9 @@ impl OwnedModel {
             reward: vec![0.0; spec.outcome_state.len()],
             known: vec![false; spec.n_states],
             best: vec![f64::NAN; spec.n_states],
+            dirty: vec![0; dirty_words(spec)],
+            active_terms: 0,
+            preds: Arc::new(Predecessors::new(spec)),
         }
     }
 
@@ -292,6 +403,9 @@ impl OwnedModel {
             reward: &mut self.reward,
             known: &mut self.known,
             best: &mut self.best,
+            dirty: &mut self.dirty,
+            active_terms: &mut self.active_terms,
+            preds: &self.preds,
         }
     }
 }
@@ -372,5 +486,180 @@ mod tests {
         assert!((q[0] - 0.45).abs() < 1e-15);
         assert_eq!(report.sweeps, 2);
         assert!(!report.capped);
+    }
+
+    /// Value iteration as SPEC 3.2 words it: every sweep recomputes every tried pair of every
+    /// known state from live row maxima. The incremental version must match it bit for bit.
+    fn value_iteration_reference(
+        m: &OwnedModel,
+        spec: &Spec,
+        q: &mut [f64],
+        gamma: f64,
+        epsilon: f64,
+        max_sweeps: u32,
+    ) -> ViReport {
+        let n_actions = spec.n_actions;
+        let goal = spec.goal as usize;
+        let mut report = ViReport::default();
+        loop {
+            let mut delta = 0.0;
+            for s in 0..spec.n_states {
+                if !m.known[s] {
+                    continue;
+                }
+                for a in 0..n_actions {
+                    let sa = s * n_actions + a;
+                    let kept = m.ring_len[sa];
+                    if kept == 0 {
+                        continue;
+                    }
+                    let n = f64::from(kept);
+                    let mut r_sa = 0.0;
+                    for o in spec.outcomes(sa) {
+                        if m.count[o] > 0 {
+                            r_sa += f64::from(m.count[o]) / n * m.reward[o];
+                        }
+                    }
+                    let mut value = 0.0;
+                    for o in spec.outcomes(sa) {
+                        let c = m.count[o];
+                        if c == 0 {
+                            continue;
+                        }
+                        let next = spec.outcome_state[o] as usize;
+                        let future = if next == goal {
+                            0.0
+                        } else {
+                            max_of(&q[next * n_actions..(next + 1) * n_actions])
+                        };
+                        value += f64::from(c) / n * (r_sa + gamma * future);
+                        report.ops += 1 + n_actions as u64;
+                    }
+                    delta += (value - q[sa]).abs();
+                    q[sa] = value;
+                }
+            }
+            report.sweeps += 1;
+            if delta < epsilon || delta.is_nan() {
+                break;
+            }
+            if report.sweeps >= max_sweeps {
+                report.capped = true;
+                break;
+            }
+        }
+        report
+    }
+
+    /// Learns `steps` random transitions of `spec` (uniform pair, outcome drawn by its
+    /// probability, reward 1 on the goal with probability `reward_prob`), calling both value
+    /// iterations every `every` steps, and asserts that Q and the reports never differ.
+    fn incremental_matches_reference(
+        spec: &Spec,
+        seed: u64,
+        steps: usize,
+        every: usize,
+        window_n: usize,
+        gamma: f64,
+        epsilon: f64,
+        max_sweeps: u32,
+        q_init: f64,
+    ) {
+        use rand_core::SeedableRng;
+        let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(seed);
+        let mut u = || crate::batch::uniform(&mut rng);
+        let pairs = spec.n_states * spec.n_actions;
+        let mut owned = OwnedModel::new(spec, window_n);
+        let mut q_inc = vec![q_init; pairs];
+        let mut q_ref = q_inc.clone();
+        for step in 1..=steps {
+            let s = loop {
+                let s = (u() * spec.n_states as f64) as usize;
+                if s != spec.goal as usize {
+                    break s;
+                }
+            };
+            let a = (u() * spec.n_actions as f64) as usize;
+            let o = spec.pick_outcome(spec.sa(s, a), u());
+            let r = if u() < 0.5 {
+                spec.reward(spec.outcome_state[o])
+            } else {
+                0.0
+            };
+            owned.view().learn(spec, window_n, window_n, s, a, o, r);
+            if step % every == 0 {
+                let inc = owned
+                    .view()
+                    .value_iteration_cached(spec, &mut q_inc, gamma, epsilon, max_sweeps);
+                let reference =
+                    value_iteration_reference(&owned, spec, &mut q_ref, gamma, epsilon, max_sweeps);
+                assert_eq!(inc, reference, "{} step {step}: reports differ", spec.name);
+                for (i, (x, y)) in q_inc.iter().zip(&q_ref).enumerate() {
+                    assert_eq!(
+                        x.to_bits(),
+                        y.to_bits(),
+                        "{} step {step}: Q[{i}] {x} != {y}",
+                        spec.name
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn incremental_value_iteration_equals_full_sweeps_bit_for_bit() {
+        let tidy1 = crate::env::load("tidy1").unwrap();
+        let tidy2 = crate::env::load("tidy2").unwrap();
+        let grid = crate::env::grid::build(30).unwrap();
+        for (seed, spec) in [(1, &tidy1), (2, &tidy2), (3, &grid)] {
+            // The defaults, VI after every step.
+            incremental_matches_reference(spec, seed, 3000, 1, 10, 0.95, 0.01, 10_000, 0.0);
+            // Sparse calls (as EC makes them), a short window, q_init 1, tight epsilon.
+            incremental_matches_reference(spec, seed + 10, 3000, 7, 3, 0.9, 1e-9, 10_000, 1.0);
+            // Calls stopped by the sweep cap leave pairs to finish in later calls.
+            incremental_matches_reference(spec, seed + 20, 2000, 3, 5, 0.99, 1e-12, 2, 0.5);
+        }
+    }
+
+    #[test]
+    fn forgetting_the_cache_makes_an_externally_changed_q_safe() {
+        let spec = crate::env::grid::build(20).unwrap();
+        let mut owned = OwnedModel::new(&spec, 10);
+        for (s, a) in [
+            (0, 1),
+            (1, 2),
+            (5, 2),
+            (6, 1),
+            (7, 2),
+            (12, 2),
+            (13, 2),
+            (18, 1),
+        ] {
+            let sa = spec.sa(s, a);
+            let o = spec.outcomes(sa).start;
+            owned.view().learn(&spec, 10, 10, s, a, o, 1.0);
+        }
+        let mut q = vec![0.0; spec.n_states * spec.n_actions];
+        owned
+            .view()
+            .value_iteration_cached(&spec, &mut q, 0.95, 1e-9, 1000);
+        // Change Q behind the cache's back, then use the safe call.
+        q.iter_mut().for_each(|v| *v = 0.25);
+        let mut q_ref = q.clone();
+        let inc = owned
+            .view()
+            .value_iteration(&spec, &mut q, 0.95, 1e-9, 1000);
+        let reference = value_iteration_reference(&owned, &spec, &mut q_ref, 0.95, 1e-9, 1000);
+        assert_eq!(inc, reference);
+        assert_eq!(q, q_ref);
+    }
+
+    #[test]
+    fn predecessors_list_every_pair_that_can_reach_a_state() {
+        let spec = toy();
+        let preds = Predecessors::new(&spec);
+        assert_eq!(preds.of(0), &[] as &[u32]);
+        assert_eq!(preds.of(1), &[0]);
+        assert_eq!(preds.of(2), &[0, 1, 2]);
     }
 }
