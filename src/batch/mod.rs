@@ -541,6 +541,8 @@ pub fn initial_state(spec: &Spec, rng: &mut Xoshiro256PlusPlus) -> StateId {
 /// task does not define them).
 pub fn validate_for_spec(spec: &Spec, params: &Params) -> Result<(), ConfigError> {
     params.validate()?;
+    // Values and totals must stay finite with this environment's reward (issue 7).
+    params.validate_for_reward(spec.goal_reward)?;
     if params.human.interaction != Interaction::None
         && params.human.budget > 0
         && spec.human.is_none()
