@@ -218,6 +218,9 @@ impl Model<'_> {
             // ahead of the cursor are computed in this sweep (as a full sweep would read the new
             // maximum), pairs marked behind it in the next.
             let mut next_pair = 0;
+            // The state of the current pair, followed as pairs ascend (a division per pair
+            // would cost more than the arithmetic of a deterministic pair).
+            let (mut s, mut row_end) = (0, n_actions);
             while let Some(sa) = next_dirty(self.dirty, next_pair) {
                 next_pair = sa + 1;
                 if sa >= n_pairs {
@@ -230,14 +233,30 @@ impl Model<'_> {
                 if kept == 0 {
                     continue;
                 }
-                let s = sa / n_actions;
+                if sa >= row_end {
+                    s = if sa < row_end + n_actions {
+                        s + 1
+                    } else {
+                        sa / n_actions
+                    };
+                    row_end = (s + 1) * n_actions;
+                }
                 let value = self.pair_value(spec, sa, kept, q, gamma, goal);
                 let old = q[sa];
                 delta += (value - old).abs();
                 if value.to_bits() != old.to_bits() {
                     let before = row_max(self.best, q, s, n_actions);
                     q[sa] = value;
-                    let after = max_of(&q[s * n_actions..(s + 1) * n_actions]);
+                    // The new maximum without rereading the row when the changed entry decides
+                    // it: a larger value is the new maximum; an entry below the maximum left it
+                    // in place. Otherwise (the maximum itself fell, ties, NaN) reread the row.
+                    let after = if value > before {
+                        value
+                    } else if old < before {
+                        before
+                    } else {
+                        max_of(&q[s * n_actions..(s + 1) * n_actions])
+                    };
                     self.best[s] = after;
                     if after.to_bits() != before.to_bits() {
                         for &p in self.preds.of(s) {
@@ -293,15 +312,23 @@ impl Model<'_> {
             return 0.0 + (r_sa + gamma * future);
         }
         let n = f64::from(kept);
+        // T(s,a,s') of the first outcomes, computed once for both sums (same division, same
+        // value); pairs with more outcomes divide again in the second.
+        const KEEP: usize = 16;
+        let mut t = [0.0; KEEP];
         let mut r_sa = 0.0;
-        for o in outcomes.clone() {
+        for (i, o) in outcomes.clone().enumerate() {
             let c = self.count[o];
             if c > 0 {
-                r_sa += f64::from(c) / n * self.reward[o];
+                let p = f64::from(c) / n;
+                if i < KEEP {
+                    t[i] = p;
+                }
+                r_sa += p * self.reward[o];
             }
         }
         let mut value = 0.0;
-        for o in outcomes {
+        for (i, o) in outcomes.enumerate() {
             let c = self.count[o];
             if c == 0 {
                 continue;
@@ -312,7 +339,8 @@ impl Model<'_> {
             } else {
                 row_max(self.best, q, next, n_actions)
             };
-            value += f64::from(c) / n * (r_sa + gamma * future);
+            let p = if i < KEEP { t[i] } else { f64::from(c) / n };
+            value += p * (r_sa + gamma * future);
         }
         value
     }
