@@ -60,8 +60,11 @@ pub fn command(args: &BenchArgs) -> Result<(), Failure> {
     Ok(())
 }
 
-/// Steps per second of `runs` runs of `params` on `spec`, timed on `threads` threads over the
-/// `window` steps that end the run (learning has settled), median of `repeats` windows.
+/// Steps per second of `runs` runs of `params` on `spec` over the `window` steps that end the run
+/// (learning has settled), for each thread count in `threads`: the median of `repeats` windows.
+///
+/// The thread counts are timed in turn within each repeat, so a slow spell of the machine
+/// weighs on all of them alike.
 pub fn steady_rate(
     spec: &Arc<Spec>,
     params: Params,
@@ -75,10 +78,23 @@ pub fn steady_rate(
     let all = pool(std::thread::available_parallelism().map_or(1, |n| n.get()))?;
     all.install(|| batch.advance(total.saturating_sub(window)));
     let window = window.min(total);
-    threads
+    let pools = threads
         .iter()
-        .map(|&t| Ok(median_rate(&batch, &pool(t)?, window, repeats)))
-        .collect()
+        .map(|&t| pool(t))
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    let mut rates = vec![Vec::new(); threads.len()];
+    for _ in 0..repeats.max(1) {
+        for (pool, rates) in pools.iter().zip(&mut rates) {
+            rates.push(window_rate(&batch, pool, window));
+        }
+    }
+    Ok(rates
+        .into_iter()
+        .map(|mut r| {
+            r.sort_by(f64::total_cmp);
+            r[r.len() / 2]
+        })
+        .collect())
 }
 
 /// `runs` runs of `params` with run indices 0.. under [`SEED`].
@@ -92,21 +108,15 @@ pub fn configs(params: Params, runs: usize) -> Vec<RunConfig> {
         .collect()
 }
 
-/// Median agent-steps per second of `window` steps of clones of `template` on `pool`.
-fn median_rate(template: &Batch, pool: &rayon::ThreadPool, window: u64, repeats: usize) -> f64 {
-    let mut rates: Vec<f64> = (0..repeats.max(1))
-        .map(|_| {
-            let mut batch = template.clone();
-            let before: u64 = batch.cursors().iter().map(|c| c.t).sum();
-            let started = Instant::now();
-            pool.install(|| batch.advance(window));
-            let seconds = started.elapsed().as_secs_f64();
-            let after: u64 = batch.cursors().iter().map(|c| c.t).sum();
-            (after - before) as f64 / seconds.max(1e-9)
-        })
-        .collect();
-    rates.sort_by(f64::total_cmp);
-    rates[rates.len() / 2]
+/// Agent-steps per second of `window` steps of a clone of `template` on `pool`.
+fn window_rate(template: &Batch, pool: &rayon::ThreadPool, window: u64) -> f64 {
+    let mut batch = template.clone();
+    let before: u64 = batch.cursors().iter().map(|c| c.t).sum();
+    let started = Instant::now();
+    pool.install(|| batch.advance(window));
+    let seconds = started.elapsed().as_secs_f64();
+    let after: u64 = batch.cursors().iter().map(|c| c.t).sum();
+    (after - before) as f64 / seconds.max(1e-9)
 }
 
 fn pool(threads: usize) -> anyhow::Result<rayon::ThreadPool> {
@@ -129,14 +139,13 @@ fn headline(cores: usize) -> anyhow::Result<()> {
     println!();
     println!("tidy1, steady state (the last 1,000 of 11,000 steps), one thread:");
     println!("  {:<10} {:>6} {:>16}", "controller", "runs", "steps/s");
-    // Fewer runs for MB, whose steps cost ~20x more: each window stays under a second.
     for (controller, runs) in [
         (Controller::Mf, 1024),
-        (Controller::Mb, 32),
-        (Controller::Rnd, 64),
-        (Controller::Ec, 512),
+        (Controller::Mb, 1024),
+        (Controller::Rnd, 1024),
+        (Controller::Ec, 1024),
     ] {
-        let rate = steady_rate(&spec, tidy1_params(controller), runs, &[1], 1000, 5)?[0];
+        let rate = steady_rate(&spec, tidy1_params(controller), runs, &[1], 1000, 9)?[0];
         println!(
             "  {:<10} {:>6} {:>16}",
             controller.name(),
@@ -152,7 +161,7 @@ fn headline(cores: usize) -> anyhow::Result<()> {
     let runs = 2048;
     println!();
     println!("ec on tidy1, steady state, {runs} runs, by thread count:");
-    let rates = steady_rate(&spec, tidy1_params(Controller::Ec), runs, &threads, 500, 5)?;
+    let rates = steady_rate(&spec, tidy1_params(Controller::Ec), runs, &threads, 1000, 9)?;
     for (t, rate) in threads.iter().zip(&rates) {
         println!(
             "  {t:>3} thread(s) {:>16} steps/s  ({:.2}x one thread)",
