@@ -1,0 +1,147 @@
+"""Peer: MF alone on tidy1 in JAX: `jax.jit` over `lax.scan` of a `vmap`ed one-run step, float32.
+
+The same work as mf_numpy.py (SPEC 3.1, 3.3, 3.4, 7): per decision the softmax of the MF's Q row
+(tau = 0.02, the maximum subtracted), a draw, the fold into the per-state averaged distribution
+(filter_alpha 0.6) and its normalised base-2 entropy (read before the fold, summed into the
+result so XLA cannot drop it), Q-learning (alpha 0.6, gamma 0.9, the goal terminal); the reset
+step after the goal; 1,000 babbling steps with reward withheld, a reset, then the experiment.
+The uniforms of every step are drawn inside the compiled function (threefry, one [T, B] array).
+
+Timing excludes compilation: the function is compiled ahead of time (`jit(...).lower().compile()`)
+and called once as a warm-up with another seed before the timed call.
+
+  python mf_jax.py [--runs B] [--steps N] [--babbling N] [--seed S] [--check] [--json]
+"""
+
+import argparse
+import json
+import os
+import sys
+import time
+
+import numpy as np
+
+import tidy1
+
+# One thread unless the caller says otherwise (run.py sets the same flags).
+os.environ.setdefault("XLA_FLAGS", "--xla_cpu_multi_thread_eigen=false intra_op_parallelism_threads=1")
+
+import jax  # noqa: E402
+import jax.numpy as jnp  # noqa: E402
+from jax import lax  # noqa: E402
+
+TAU, ALPHA, GAMMA, FILTER = 0.02, 0.6, 0.9, 0.6
+
+
+def build(n_runs, steps, babbling, last=500, unroll=1):
+    """The jitted batch: seed -> per-run (reward over the last `last` steps, total reward,
+    decisions, summed normalised entropy)."""
+    nxt_np, goal, _ = tidy1.build()
+    n_s, n_a = nxt_np.shape
+    nxt = jnp.asarray(nxt_np, jnp.int32)
+    tiny = jnp.finfo(jnp.float32).tiny
+    inv_log2_a = np.float32(1.0 / np.log2(n_a))
+
+    def one_run(carry, u, experiment, in_last):
+        q, pavg, s, r_last, r_total, dec, h_sum = carry
+        decide = s != goal  # the reset step decides and learns nothing
+        qs = q[s]
+        e = jnp.exp((qs - qs.max()) / TAU)
+        total = e.sum()
+        p = e / total
+        a = jnp.minimum(jnp.sum(jnp.cumsum(e) < u * total), n_a - 1)
+        pa = pavg[s]
+        h = -jnp.sum(pa * jnp.log2(jnp.maximum(pa, tiny))) * inv_log2_a  # 0 log 0 = 0
+        pavg = pavg.at[s].set(jnp.where(decide, pa + FILTER * (p - pa), pa))
+        nxt_s = jnp.where(decide, nxt[s, a], 0)
+        terminal = nxt_s == goal
+        future = jnp.where(terminal, 0.0, q[nxt_s].max())
+        r = jnp.where(terminal & experiment, 1.0, 0.0).astype(jnp.float32)
+        qsa = q[s, a]
+        q = q.at[s, a].set(jnp.where(decide, qsa + ALPHA * (r + GAMMA * future - qsa), qsa))
+        if experiment:
+            r_total = r_total + r
+            r_last = r_last + jnp.where(in_last, r, 0.0)
+            dec = dec + decide.astype(jnp.int32)
+            h_sum = h_sum + jnp.where(decide, h, 0.0)
+        return (q, pavg, nxt_s, r_last, r_total, dec, h_sum)
+
+    def phase(carry, us, experiment, in_last):
+        batched = jax.vmap(lambda c, u, l: one_run(c, u, experiment, l), in_axes=(0, 0, None))
+
+        def body(c, x):
+            u, l = x
+            return batched(c, u, l), None
+
+        carry, _ = lax.scan(body, carry, (us, in_last), unroll=unroll)
+        return carry
+
+    def simulate(seed):
+        key = jax.random.PRNGKey(seed)
+        k_bab, k_exp = jax.random.split(key)
+        carry = (
+            jnp.zeros((n_runs, n_s, n_a), jnp.float32),
+            jnp.full((n_runs, n_s, n_a), 1.0 / n_a, jnp.float32),
+            jnp.zeros(n_runs, jnp.int32),
+            jnp.zeros(n_runs, jnp.float32),
+            jnp.zeros(n_runs, jnp.float32),
+            jnp.zeros(n_runs, jnp.int32),
+            jnp.zeros(n_runs, jnp.float32),
+        )
+        in_last = jnp.arange(1, steps + 1) > steps - last
+        if babbling > 0:
+            us = jax.random.uniform(k_bab, (babbling, n_runs), jnp.float32)
+            carry = phase(carry, us, False, jnp.zeros(babbling, bool))
+            carry = carry[:2] + (jnp.zeros(n_runs, jnp.int32),) + carry[3:]  # back to the start
+        us = jax.random.uniform(k_exp, (steps, n_runs), jnp.float32)
+        carry = phase(carry, us, True, in_last)
+        return carry[3:]
+
+    return jax.jit(simulate).lower(jnp.int32(0)).compile()
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--runs", type=int, default=512)
+    ap.add_argument("--steps", type=int, default=2000)
+    ap.add_argument("--babbling", type=int, default=1000)
+    ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--unroll", type=int, default=1, help="lax.scan unroll factor")
+    ap.add_argument("--check", action="store_true", help="also run mbmf on the same work and compare")
+    ap.add_argument("--json", action="store_true", help="print one JSON line of timing for run.py")
+    args = ap.parse_args()
+    t0 = time.perf_counter()
+    fn = build(args.runs, args.steps, args.babbling, unroll=args.unroll)
+    compile_s = time.perf_counter() - t0
+    jax.block_until_ready(fn(jnp.int32(args.seed + 1000)))  # warm-up call, not timed
+    started, cpu_started = time.perf_counter(), time.process_time()
+    out = jax.block_until_ready(fn(jnp.int32(args.seed)))
+    seconds, cpu_seconds = time.perf_counter() - started, time.process_time() - cpu_started
+    last, tot, dec, h_sum = (np.asarray(x) for x in out)
+    agent_steps = args.runs * (args.babbling + args.steps)
+    if args.json:
+        print(json.dumps({"impl": "jax-mf", "seconds": seconds, "cpu_seconds": cpu_seconds, "agent_steps": agent_steps,
+                          "compile_s": compile_s, "reward_last500": float(last.mean())}))
+        return
+    print(f"jax {jax.__version__} on {jax.devices()[0].platform} (compile {compile_s:.1f} s, not timed)")
+    print(f"JAX MF (float32): {args.runs} runs x ({args.babbling} + {args.steps}) steps in {seconds:.2f} s"
+          f" = {agent_steps / seconds:,.0f} agent-steps/s")
+    mean_h = h_sum / np.maximum(dec, 1)
+    print(f"  reward over the last 500 steps, mean per run: {last.mean():.2f} (sd {last.std():.2f}); "
+          f"total {tot.mean():.1f}; decisions {dec.mean():.0f}; mean entropy {mean_h.mean():.3f}")
+    if args.check:
+        import tempfile
+
+        out = tidy1.run_mbmf("mf", args.runs, args.steps, args.babbling, tempfile.mkdtemp(prefix="peers-mf-"))
+        ref, table = tidy1.mbmf_last(out, args.steps)
+        print(f"  mbmf: last 500 steps {ref.mean():.2f} (sd {ref.std():.2f}); total "
+              f"{np.mean(table['total_reward']):.1f}; decisions {np.mean(table['decisions']):.0f}; "
+              f"mean entropy {np.mean(table['mean_entropy_chosen']):.3f}")
+        v = tidy1.verdict(last.mean(), ref.mean())
+        print(f"  verdict: {v}")
+        if v.startswith("FAR"):
+            sys.exit(1)
+
+
+if __name__ == "__main__":
+    main()
