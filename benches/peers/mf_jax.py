@@ -43,9 +43,10 @@ def build(n_runs, steps, babbling, last=500, unroll=1):
     inv_log2_a = np.float32(1.0 / np.log2(n_a))
 
     def one_run(carry, u, experiment, in_last):
-        q, pavg, s, r_last, r_total, dec, h_sum = carry
+        # qs is Q(s, .) of the current state, carried from the previous step's gather of the
+        # next state's row (needed there for max_b Q(s', b)): one row gather per step saved.
+        q, qs, pavg, s, r_last, r_total, dec, h_sum = carry
         decide = s != goal  # the reset step decides and learns nothing
-        qs = q[s]
         e = jnp.exp((qs - qs.max()) / TAU)
         total = e.sum()
         p = e / total
@@ -55,16 +56,19 @@ def build(n_runs, steps, babbling, last=500, unroll=1):
         pavg = pavg.at[s].set(jnp.where(decide, pa + FILTER * (p - pa), pa))
         nxt_s = jnp.where(decide, nxt[s, a], 0)
         terminal = nxt_s == goal
-        future = jnp.where(terminal, 0.0, q[nxt_s].max())
+        qn = q[nxt_s]
+        future = jnp.where(terminal, 0.0, qn.max())
         r = jnp.where(terminal & experiment, 1.0, 0.0).astype(jnp.float32)
-        qsa = q[s, a]
-        q = q.at[s, a].set(jnp.where(decide, qsa + ALPHA * (r + GAMMA * future - qsa), qsa))
+        qsa = qs[a]
+        new = jnp.where(decide, qsa + ALPHA * (r + GAMMA * future - qsa), qsa)
+        q = q.at[s, a].set(new)
+        qn = jnp.where(nxt_s == s, qn.at[a].set(new), qn)  # a self-loop changed that row
         if experiment:
             r_total = r_total + r
             r_last = r_last + jnp.where(in_last, r, 0.0)
             dec = dec + decide.astype(jnp.int32)
             h_sum = h_sum + jnp.where(decide, h, 0.0)
-        return (q, pavg, nxt_s, r_last, r_total, dec, h_sum)
+        return (q, qn, pavg, nxt_s, r_last, r_total, dec, h_sum)
 
     def phase(carry, us, experiment, in_last):
         batched = jax.vmap(lambda c, u, l: one_run(c, u, experiment, l), in_axes=(0, 0, None))
@@ -81,6 +85,7 @@ def build(n_runs, steps, babbling, last=500, unroll=1):
         k_bab, k_exp = jax.random.split(key)
         carry = (
             jnp.zeros((n_runs, n_s, n_a), jnp.float32),
+            jnp.zeros((n_runs, n_a), jnp.float32),
             jnp.full((n_runs, n_s, n_a), 1.0 / n_a, jnp.float32),
             jnp.zeros(n_runs, jnp.int32),
             jnp.zeros(n_runs, jnp.float32),
@@ -92,10 +97,11 @@ def build(n_runs, steps, babbling, last=500, unroll=1):
         if babbling > 0:
             us = jax.random.uniform(k_bab, (babbling, n_runs), jnp.float32)
             carry = phase(carry, us, False, jnp.zeros(babbling, bool))
-            carry = carry[:2] + (jnp.zeros(n_runs, jnp.int32),) + carry[3:]  # back to the start
+            # Back to the start (and its Q row).
+            carry = (carry[0], carry[0][:, 0], carry[2], jnp.zeros(n_runs, jnp.int32)) + carry[4:]
         us = jax.random.uniform(k_exp, (steps, n_runs), jnp.float32)
         carry = phase(carry, us, True, in_last)
-        return carry[3:]
+        return carry[4:]
 
     return jax.jit(simulate).lower(jnp.int32(0)).compile()
 
