@@ -7,7 +7,7 @@ Q-learning (alpha 0.6, gamma 0.9, the goal terminal). The step after arriving in
 reset step (back to the start, nothing decided or learned). 1,000 babbling steps with reward
 withheld, then a reset to the start, then the experiment.
 
-float32 throughout (for speed: half the memory traffic of float64, and numpy's SIMD exp/log2 are
+float32 throughout (for speed: half the memory traffic of float64, and numpy's SIMD exp and log are
 faster in float32; Q values stay in [0, 1], so nothing underflows at tau = 0.02).
 
 Reset lanes are masked, not compacted: their softmax and draw are computed and discarded.

@@ -102,7 +102,7 @@ def main():
     ap.add_argument("--babbling", type=int, default=1000)
     ap.add_argument("--core", type=int, default=0, help="the core every job is pinned to")
     ap.add_argument("--only", default="mf,ec", help="mf, ec or mf,ec")
-    ap.add_argument("--quick", action="store_true", help="a smoke test: 1 repeat, 256 MF runs, 32 EC runs, 200 steps")
+    ap.add_argument("--quick", action="store_true", help="a smoke test: 1 repeat, 256 MF runs, 32 EC runs, 100 babbling + 600 steps")
     args = ap.parse_args()
     if args.quick:
         args.repeats, args.mf_runs, args.ec_runs, args.steps, args.babbling = 1, 256, 32, 600, 100

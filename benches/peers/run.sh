@@ -3,7 +3,7 @@
 # `mbmf run` on one pinned core (see run.py --help). Needs target/release/mbmf (cargo build
 # --release) or MBMF=/path/to/mbmf.
 #
-#   benches/peers/run.sh                 # the full benchmark (about 10 minutes on a quiet machine)
+#   benches/peers/run.sh                 # the full benchmark (a few minutes; 10 on a busy machine)
 #   benches/peers/run.sh --quick         # a smoke test (under a minute)
 set -euo pipefail
 HERE="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
