@@ -10,55 +10,14 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use anyhow::{Context, anyhow};
-use clap::Args;
 
 use crate::batch::{Batch, RunConfig};
-use crate::cli::{Failure, runtime, usage};
 use crate::env::{self, Spec};
 use crate::params::{Controller, Params};
 use crate::plot::{LineChart, Series, line_chart};
 
 /// Master seed of every input of `mbmf bench`.
 pub const SEED: u64 = 20_200_831;
-
-/// `mbmf bench`.
-#[derive(Debug, Clone, Args)]
-pub struct BenchArgs {
-    /// Also measure growth on grid:N worlds (100 to --growth-max states, all four controllers):
-    /// writes growth.csv and log-log charts (growth_time, growth_memory) into --out. A few
-    /// minutes more.
-    #[arg(long)]
-    pub growth: bool,
-    /// Largest grid of the growth study, in states.
-    #[arg(long, default_value_t = 10_000)]
-    pub growth_max: usize,
-    /// Folder for the growth study's CSV and charts.
-    #[arg(long, default_value = "out/bench")]
-    pub out: PathBuf,
-}
-
-/// Runs `mbmf bench`.
-pub fn command(args: &BenchArgs) -> Result<(), Failure> {
-    if args.growth && !(100..=env::grid::MAX_STATES).contains(&args.growth_max) {
-        return Err(usage(anyhow!(
-            "--growth-max must be between 100 and {} states, not {}",
-            env::grid::MAX_STATES,
-            args.growth_max
-        )));
-    }
-    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
-    println!(
-        "mbmf bench: {} thread(s) available; medians of timed windows, setup not timed",
-        cores
-    );
-    headline(cores).map_err(runtime)?;
-    if args.growth {
-        let sizes = growth_sizes(args.growth_max);
-        let points = growth(&sizes, &GROWTH_CONTROLLERS).map_err(runtime)?;
-        write_growth(&points, &args.out).map_err(runtime)?;
-    }
-    Ok(())
-}
 
 /// Steps per second of `runs` runs of `params` on `spec` over the `window` steps that end the run
 /// (learning has settled), for each thread count in `threads`: the median of `repeats` windows.
@@ -124,63 +83,6 @@ fn pool(threads: usize) -> anyhow::Result<rayon::ThreadPool> {
         .num_threads(threads)
         .build()
         .map_err(|e| anyhow!("cannot start {threads} worker threads: {e}"))
-}
-
-/// Paper defaults for `controller` on tidy1.
-fn tidy1_params(controller: Controller) -> Params {
-    Params {
-        controller,
-        ..Params::default()
-    }
-}
-
-fn headline(cores: usize) -> anyhow::Result<()> {
-    let spec = Arc::new(env::load("tidy1")?);
-    println!();
-    println!("tidy1, steady state (the last 1,000 of 11,000 steps), one thread:");
-    println!("  {:<10} {:>6} {:>16}", "controller", "runs", "steps/s");
-    for (controller, runs) in [
-        (Controller::Mf, 1024),
-        (Controller::Mb, 1024),
-        (Controller::Rnd, 1024),
-        (Controller::Ec, 1024),
-    ] {
-        let rate = steady_rate(&spec, tidy1_params(controller), runs, &[1], 1000, 9)?[0];
-        println!(
-            "  {:<10} {:>6} {:>16}",
-            controller.name(),
-            runs,
-            thousands(rate)
-        );
-    }
-
-    let mut threads = vec![1, 2];
-    if cores > 2 {
-        threads.push(cores);
-    }
-    let runs = 2048;
-    println!();
-    println!("ec on tidy1, steady state, {runs} runs, by thread count:");
-    let rates = steady_rate(&spec, tidy1_params(Controller::Ec), runs, &threads, 1000, 9)?;
-    for (t, rate) in threads.iter().zip(&rates) {
-        println!(
-            "  {t:>3} thread(s) {:>16} steps/s  ({:.2}x one thread)",
-            thousands(*rate),
-            rate / rates[0]
-        );
-    }
-
-    println!();
-    let memory = memory_per_instance(&spec, 10_000)?;
-    println!(
-        "memory: 10,000 tidy1 runs hold {:.1} KiB of state each{}",
-        memory.layout_bytes as f64 / 1024.0,
-        match memory.rss_bytes {
-            Some(rss) => format!("; resident memory grew by {:.1} KiB per run", rss / 1024.0),
-            None => String::new(),
-        }
-    );
-    Ok(())
 }
 
 /// Memory of one run of a batch.
@@ -275,18 +177,14 @@ pub const GROWTH_STEPS: u64 = 11_000;
 pub const GROWTH_RUNS: usize = 4;
 
 /// Time per step (whole runs of [`GROWTH_STEPS`] steps, one thread) and memory per run on
-/// `grid:N` for each size and controller.
-pub fn growth(sizes: &[usize], controllers: &[Controller]) -> anyhow::Result<Vec<GrowthPoint>> {
+/// `grid:N` for each size and controller; `on_point` sees each point as it is measured.
+pub fn growth(
+    sizes: &[usize],
+    controllers: &[Controller],
+    mut on_point: impl FnMut(&GrowthPoint),
+) -> anyhow::Result<Vec<GrowthPoint>> {
     let one = pool(1)?;
     let mut points = Vec::new();
-    println!();
-    println!(
-        "growth on grid:N, whole runs ({GROWTH_STEPS} steps), {GROWTH_RUNS} runs, one thread:"
-    );
-    println!(
-        "  {:>7} {:<10} {:>12} {:>12} {:>10} {:>10} {:>12}",
-        "states", "controller", "us/step", "KiB/run", "reward", "known", "sweeps/VI"
-    );
     for &n in sizes {
         let spec = Arc::new(env::grid::build(n).map_err(|e| anyhow!(e))?);
         for &controller in controllers {
@@ -317,24 +215,16 @@ pub fn growth(sizes: &[usize], controllers: &[Controller]) -> anyhow::Result<Vec
                     / runs,
                 sweeps_per_call: vi_sweeps as f64 / vi_calls.max(1) as f64,
             };
-            println!(
-                "  {:>7} {:<10} {:>12.3} {:>12.1} {:>10.1} {:>10.0} {:>12.2}",
-                n,
-                controller.name(),
-                point.seconds_per_step * 1e6,
-                point.bytes_per_run as f64 / 1024.0,
-                point.reward,
-                point.known_states,
-                point.sweeps_per_call
-            );
+            on_point(&point);
             points.push(point);
         }
     }
     Ok(points)
 }
 
-/// Writes `growth.csv` and the log-log charts `growth_time` and `growth_memory` into `out`.
-pub fn write_growth(points: &[GrowthPoint], out: &Path) -> anyhow::Result<()> {
+/// Writes `growth.csv` and the log-log charts `growth_time` and `growth_memory` into `out`;
+/// returns the files written, the CSV first.
+pub fn write_growth(points: &[GrowthPoint], out: &Path) -> anyhow::Result<Vec<PathBuf>> {
     std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
     let mut csv = String::from(
         "states,controller,us_per_step,steps_per_s,bytes_per_run,reward,known_states,sweeps_per_vi\n",
@@ -393,37 +283,13 @@ pub fn write_growth(points: &[GrowthPoint], out: &Path) -> anyhow::Result<()> {
         log_y: true,
     };
     written.extend(line_chart(&memory, &out.join("growth_memory"))?);
-    println!();
-    println!("wrote {}", csv_path.display());
-    for path in written {
-        println!("wrote {}", path.display());
-    }
-    Ok(())
-}
-
-/// `1234567.8` as `1,234,568`.
-fn thousands(x: f64) -> String {
-    let digits = format!("{:.0}", x.max(0.0));
-    let mut out = String::new();
-    for (i, c) in digits.chars().enumerate() {
-        if i > 0 && (digits.len() - i).is_multiple_of(3) {
-            out.push(',');
-        }
-        out.push(c);
-    }
-    out
+    written.insert(0, csv_path);
+    Ok(written)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn thousands_groups_digits_by_three() {
-        assert_eq!(thousands(0.0), "0");
-        assert_eq!(thousands(999.4), "999");
-        assert_eq!(thousands(1_234_567.8), "1,234,568");
-    }
 
     #[test]
     fn growth_sizes_take_three_steps_per_decade_and_end_at_the_maximum() {

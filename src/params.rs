@@ -2,13 +2,88 @@
 //! state in [`crate::batch::Batch`]; this small `Copy` record is all that may differ between runs
 //! of one batch.
 
-use serde::{Deserialize, Serialize};
+use thiserror::Error;
 
-use crate::error::ConfigError;
+/// A parameter value outside what the model accepts.
+#[derive(Debug, Error, PartialEq)]
+pub enum ConfigError {
+    /// A scalar out of range.
+    #[error("invalid {name} = {value}: expected {accepted}")]
+    InvalidParam {
+        /// The parameter's name: the field of [`crate::params::Params`] (or of its `human`),
+        /// which is also its output column; [`crate::params::cli_flag`] gives the flag.
+        name: &'static str,
+        /// The bad value, as [`crate::params::show`] writes it.
+        value: String,
+        /// What would be accepted.
+        accepted: &'static str,
+    },
+    /// Values the simulation would compute could exceed the range of a float (SPEC 3.3: no
+    /// overflow), so the combination is refused before anything runs.
+    #[error(
+        "{what} could reach {reached} with {because}, beyond the supported magnitude {limit:e} \
+         (sums of such values would overflow to infinity); {fix}",
+        limit = crate::params::VALUE_LIMIT
+    )]
+    ValueOverflow {
+        /// The quantity at risk, e.g. "action values".
+        what: &'static str,
+        /// Its bound, to three significant digits.
+        reached: String,
+        /// The inputs that make it large, with their values.
+        because: String,
+        /// How to bring it back in range.
+        fix: &'static str,
+    },
+    /// Human interactions on a task that does not define them (SPEC 5).
+    #[error(
+        "interaction '{interaction}' is not defined for task '{task}': only tidy1 and tidy2 say which \
+         actions are relevant or errors and where a held cube belongs; use --interaction none (or budget 0)"
+    )]
+    InteractionUnsupported {
+        /// The task.
+        task: String,
+        /// The interaction type asked for.
+        interaction: String,
+    },
+}
+
+/// `name()` of each parameter enum: the value's name on the command line, in sweep files and in
+/// outputs (what clap's `ValueEnum` derive also accepts).
+macro_rules! names {
+    ($($ty:ident { $($variant:ident => $name:literal),* $(,)? })*) => { $(
+        impl $ty {
+            /// The name used on the command line and in outputs.
+            pub fn name(self) -> &'static str {
+                match self { $($ty::$variant => $name),* }
+            }
+        }
+    )* };
+}
+
+names! {
+    Controller { Mf => "mf", Mb => "mb", Rnd => "rnd", Ec => "ec", Entropy => "entropy" }
+    Selection { Softmax => "softmax", Argmax => "argmax" }
+    CostModel { Ops => "ops", Wallclock => "wallclock" }
+    Interaction {
+        None => "none",
+        Congratulation => "congratulation",
+        Takeover => "takeover",
+        Punishment => "punishment",
+    }
+    Profile {
+        None => "none",
+        PaperCongratulation => "paper-congratulation",
+        PaperTakeover => "paper-takeover",
+        Generous => "generous",
+        Stingy => "stingy",
+        StopsEarly => "stops-early",
+        Custom => "custom",
+    }
+}
 
 /// Which experts the meta-controller may choose from, and how (SPEC 4).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, clap::ValueEnum)]
 pub enum Controller {
     /// Model-free expert alone.
     Mf,
@@ -32,17 +107,6 @@ impl Controller {
         Controller::Entropy,
     ];
 
-    /// The name used on the command line and in outputs.
-    pub fn name(self) -> &'static str {
-        match self {
-            Controller::Mf => "mf",
-            Controller::Mb => "mb",
-            Controller::Rnd => "rnd",
-            Controller::Ec => "ec",
-            Controller::Entropy => "entropy",
-        }
-    }
-
     /// Whether the controller runs both experts (and so both infer at a first decision).
     pub fn is_dual(self) -> bool {
         matches!(self, Controller::Rnd | Controller::Ec | Controller::Entropy)
@@ -60,8 +124,7 @@ impl Controller {
 }
 
 /// How the meta-controller turns expert values into a choice (SPEC 4).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, clap::ValueEnum)]
 pub enum Selection {
     /// Softmax over the two values with `tau`, then a draw (the paper).
     Softmax,
@@ -70,8 +133,7 @@ pub enum Selection {
 }
 
 /// How inference cost is measured (SPEC 6).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, clap::ValueEnum)]
 pub enum CostModel {
     /// Q values read per inference: deterministic.
     Ops,
@@ -80,8 +142,7 @@ pub enum CostModel {
 }
 
 /// Kind of help the simulated human gives (SPEC 5).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, clap::ValueEnum)]
 pub enum Interaction {
     /// No human.
     None,
@@ -94,8 +155,7 @@ pub enum Interaction {
 }
 
 /// Named presets of the human's behaviour (SPEC 5), sweepable as a whole.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, clap::ValueEnum)]
 pub enum Profile {
     /// No interaction.
     None,
@@ -110,11 +170,12 @@ pub enum Profile {
     /// Congratulation with a budget of 10, then silence.
     StopsEarly,
     /// Whatever the individual flags say.
+    #[value(skip)]
     Custom,
 }
 
 /// Scalars of the simulated human (SPEC 5).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct HumanParams {
     /// Interaction type. Default `none`.
     pub interaction: Interaction,
@@ -147,19 +208,6 @@ impl Profile {
         Profile::Stingy,
         Profile::StopsEarly,
     ];
-
-    /// The name used on the command line and in outputs.
-    pub fn name(self) -> &'static str {
-        match self {
-            Profile::None => "none",
-            Profile::PaperCongratulation => "paper-congratulation",
-            Profile::PaperTakeover => "paper-takeover",
-            Profile::Generous => "generous",
-            Profile::Stingy => "stingy",
-            Profile::StopsEarly => "stops-early",
-            Profile::Custom => "custom",
-        }
-    }
 
     /// The human this profile describes for `controller`, or `None` for `custom`.
     pub fn human(self, controller: Controller) -> Option<HumanParams> {
@@ -214,7 +262,7 @@ pub fn paper_budget(controller: Controller, interaction: Interaction) -> u32 {
 }
 
 /// Every sweepable scalar of one run. `Default` gives the paper's values (SPEC 3, 4, 7).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Params {
     /// Meta-controller. Default `ec`.
     pub controller: Controller,
@@ -355,67 +403,23 @@ impl Params {
             }
         }
         let unit_open = |x: f64| x > 0.0 && x <= 1.0;
-        let unit_closed = |x: f64| (0.0..=1.0).contains(&x);
-        check(
-            "alpha_mf",
-            self.alpha_mf,
-            unit_open(self.alpha_mf),
-            "a learning rate in (0, 1] (default 0.6)",
-        )?;
-        check(
-            "gamma_mf",
-            self.gamma_mf,
-            (0.0..1.0).contains(&self.gamma_mf),
-            "a discount in [0, 1) (default 0.9)",
-        )?;
-        check(
-            "gamma_mb",
-            self.gamma_mb,
-            (0.0..1.0).contains(&self.gamma_mb),
-            "a discount in [0, 1) (default 0.95)",
-        )?;
-        check(
-            "tau",
-            self.tau,
-            self.tau >= TAU_MIN,
-            "a temperature > 0, at least 1e-300 (default 0.02)",
-        )?;
-        check(
-            "q_init",
-            self.q_init,
-            self.q_init.abs() <= MAGNITUDE_MAX,
-            "a number from -1e12 to 1e12 (default 0)",
-        )?;
-        check(
-            "vi_epsilon",
-            self.vi_epsilon,
-            self.vi_epsilon > 0.0,
-            "a tolerance > 0 (default 0.01)",
-        )?;
-        check(
-            "filter_alpha",
-            self.filter_alpha,
-            unit_open(self.filter_alpha),
-            "a weight in (0, 1] (default 0.6)",
-        )?;
-        check(
-            "kappa_coeff",
-            self.kappa_coeff,
-            self.kappa_coeff >= 0.0,
-            "a number >= 0 (default 9)",
-        )?;
-        check(
-            "forget_prob",
-            self.human.forget_prob,
-            unit_closed(self.human.forget_prob),
-            "a probability in [0, 1] (default 0.1)",
-        )?;
-        check(
-            "zeta",
-            self.human.zeta,
-            (0.0..=MAGNITUDE_MAX).contains(&self.human.zeta),
-            "a bonus weight from 0 to 1e12 (default 0.1; punishment subtracts it)",
-        )?;
+        let (h, zeta) = (&self.human, self.human.zeta);
+        #[rustfmt::skip]
+        let reals = [
+            ("alpha_mf", self.alpha_mf, unit_open(self.alpha_mf), "a learning rate in (0, 1] (default 0.6)"),
+            ("gamma_mf", self.gamma_mf, (0.0..1.0).contains(&self.gamma_mf), "a discount in [0, 1) (default 0.9)"),
+            ("gamma_mb", self.gamma_mb, (0.0..1.0).contains(&self.gamma_mb), "a discount in [0, 1) (default 0.95)"),
+            ("tau", self.tau, self.tau >= TAU_MIN, "a temperature > 0, at least 1e-300 (default 0.02)"),
+            ("q_init", self.q_init, self.q_init.abs() <= MAGNITUDE_MAX, "a number from -1e12 to 1e12 (default 0)"),
+            ("vi_epsilon", self.vi_epsilon, self.vi_epsilon > 0.0, "a tolerance > 0 (default 0.01)"),
+            ("filter_alpha", self.filter_alpha, unit_open(self.filter_alpha), "a weight in (0, 1] (default 0.6)"),
+            ("kappa_coeff", self.kappa_coeff, self.kappa_coeff >= 0.0, "a number >= 0 (default 9)"),
+            ("forget_prob", h.forget_prob, (0.0..=1.0).contains(&h.forget_prob), "a probability in [0, 1] (default 0.1)"),
+            ("zeta", zeta, (0.0..=MAGNITUDE_MAX).contains(&zeta), "a bonus weight from 0 to 1e12 (default 0.1; punishment subtracts it)"),
+        ];
+        for (name, value, ok, accepted) in reals {
+            check(name, value, ok, accepted)?;
+        }
         if self.window_n == 0 || self.window_n > u32::from(u16::MAX) {
             return Err(ConfigError::InvalidParam {
                 name: "window_n",
@@ -428,6 +432,24 @@ impl Params {
                 name: "vi_max_sweeps",
                 value: "0".into(),
                 accepted: "at least 1 sweep per inference (default 10000)",
+            });
+        }
+        Ok(())
+    }
+
+    /// Checks every scalar, and that the parameters make sense for the environment `spec`: values
+    /// stay finite with its reward, and no interactions where the task does not define them
+    /// (SPEC 5).
+    pub fn validate_for(&self, spec: &crate::env::Spec) -> Result<(), ConfigError> {
+        self.validate()?;
+        self.validate_for_reward(spec.goal_reward)?;
+        if self.human.interaction != Interaction::None
+            && self.human.budget > 0
+            && spec.human.is_none()
+        {
+            return Err(ConfigError::InteractionUnsupported {
+                task: spec.name.clone(),
+                interaction: self.human.interaction.name().to_string(),
             });
         }
         Ok(())

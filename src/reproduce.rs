@@ -17,17 +17,15 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use anyhow::{Context, Result};
-use clap::Args;
 
 use crate::analysis::stats::{self, Alternative};
 use crate::batch::{Batch, Checkpoint, RunConfig, RunStats};
-use crate::cli::{Failure, runtime};
 use crate::env;
-use crate::experiment;
 use crate::output;
 use crate::params::{
     Controller, HumanParams, Interaction, Params, Profile, Selection, paper_budget,
 };
+use crate::pipeline;
 use crate::plot;
 
 /// Budgets of the task-1 budget scan (0 is the no-interaction condition).
@@ -44,25 +42,32 @@ const CONTROLLERS: [Controller; 4] = [
     Controller::Ec,
 ];
 
-/// `mbmf reproduce`.
-#[derive(Debug, Clone, Args)]
-pub struct ReproduceArgs {
+/// What to reproduce, and where.
+#[derive(Debug, Clone)]
+pub struct Options {
     /// Output folder for the data, figures and report.md.
-    #[arg(long, default_value = "out/reproduce")]
     pub out: PathBuf,
-    /// A small version that runs in seconds (6 runs, 2,000 / 4,000 steps, the paper's budgets
-    /// only); its numbers are for checking the pipeline, not for conclusions.
-    #[arg(long)]
+    /// The small version (6 runs, 2,000 / 4,000 steps, the paper's budgets only).
     pub quick: bool,
-    /// Runs per condition (default 50, or 6 with --quick).
-    #[arg(long)]
+    /// Runs per condition (default 50, or 6 with `quick`).
     pub runs: Option<u32>,
     /// Master seed.
-    #[arg(long, default_value_t = 2020)]
     pub seed: u64,
-    /// No progress bar.
-    #[arg(long)]
-    pub quiet: bool,
+}
+
+/// What a reproduction did.
+#[derive(Debug, Clone)]
+pub struct Summary {
+    /// The table of means per condition, as in the report.
+    pub table: String,
+    /// Runs simulated.
+    pub runs: usize,
+    /// Seconds spent simulating.
+    pub seconds: f64,
+    /// The report written.
+    pub report: PathBuf,
+    /// The folder of the figures.
+    pub figures: PathBuf,
 }
 
 /// The scale of a reproduction.
@@ -77,7 +82,7 @@ struct Scale {
 }
 
 impl Scale {
-    fn new(args: &ReproduceArgs) -> Scale {
+    fn new(args: &Options) -> Scale {
         if args.quick {
             Scale {
                 runs: args.runs.unwrap_or(6),
@@ -117,14 +122,6 @@ impl Condition {
             s.push_str(" (argmax)");
         }
         s
-    }
-    fn interaction_name(&self) -> &'static str {
-        match self.interaction {
-            Interaction::None => "none",
-            Interaction::Congratulation => "congratulation",
-            Interaction::Takeover => "takeover",
-            Interaction::Punishment => "punishment",
-        }
     }
 }
 
@@ -298,60 +295,58 @@ fn params_of(condition: &Condition, scale: &Scale) -> Params {
     }
 }
 
-/// Runs `mbmf reproduce`.
-pub fn command(args: &ReproduceArgs) -> Result<(), Failure> {
+/// Runs the paper's experiments into `options.out` and writes the report; `total` is told the
+/// agent-steps to simulate before the first step, `progress` the agent-steps advanced.
+pub fn reproduce(
+    options: &Options,
+    total: impl FnOnce(u64),
+    progress: impl FnMut(u64),
+) -> Result<Summary> {
     let started = Instant::now();
-    let scale = Scale::new(args);
-    let outcomes = simulate_all(args, &scale).map_err(runtime)?;
+    let scale = Scale::new(options);
+    let outcomes = simulate_all(options, &scale, total, progress)?;
     let seconds = started.elapsed().as_secs_f64();
-    let min_budgets = min_budgets(&args.out.join("data")).map_err(runtime)?;
+    let min_budgets = min_budgets(&options.out.join("data"))?;
     let report = Report {
         outcomes: &outcomes,
         min_budgets: &min_budgets,
         scale: &scale,
-        args,
+        args: options,
         seconds,
     };
-    let figures = report.figures().map_err(runtime)?;
+    let figures = report.figures()?;
     let text = report.markdown(&figures);
-    let path = args.out.join("report.md");
-    write_atomic(&path, &text).map_err(runtime)?;
-    print!("{}", report.summary_table());
-    println!(
-        "\n{} runs in {:.1} s; report: {}; figures: {}",
-        outcomes.iter().map(|o| o.runs.len()).sum::<usize>(),
+    let path = report_path(&options.out);
+    write_atomic(&path, &text)?;
+    Ok(Summary {
+        table: report.summary_table(),
+        runs: outcomes.iter().map(|o| o.runs.len()).sum(),
         seconds,
-        path.display(),
-        args.out.join("figures").display()
-    );
-    Ok(())
+        report: path,
+        figures: options.out.join("figures"),
+    })
 }
 
 fn write_atomic(path: &Path, text: &str) -> Result<()> {
-    let tmp = path.with_extension("md.tmp");
-    std::fs::write(&tmp, text).with_context(|| format!("cannot write {}", tmp.display()))?;
-    std::fs::rename(&tmp, path).with_context(|| format!("cannot write {}", path.display()))?;
-    Ok(())
+    output::write_atomic(path, text.as_bytes())
+        .map_err(|(p, e)| anyhow::Error::new(e).context(format!("cannot write {}", p.display())))
 }
 
-fn simulate_all(args: &ReproduceArgs, scale: &Scale) -> Result<Vec<Outcome>> {
+fn simulate_all(
+    args: &Options,
+    scale: &Scale,
+    total: impl FnOnce(u64),
+    mut progress: impl FnMut(u64),
+) -> Result<Vec<Outcome>> {
     let conditions = conditions(scale);
     let data = args.out.join("data");
     std::fs::create_dir_all(&data)
         .with_context(|| format!("cannot create output folder {}", data.display()))?;
-    let metadata = vec![
-        (
-            "mbmf_version".to_string(),
-            env!("CARGO_PKG_VERSION").to_string(),
-        ),
-        (
-            "mbmf_command".to_string(),
-            std::env::args().collect::<Vec<_>>().join(" "),
-        ),
-        ("master_seed".to_string(), args.seed.to_string()),
-    ];
-    let mut runs_sink = output::ParquetSink::new(&data.join("runs.parquet"), metadata.clone());
-    let mut series_sink = output::ParquetSink::new(&data.join("series.parquet"), metadata);
+    let metadata = output::metadata([
+        ("mbmf_command", output::command_line()),
+        ("master_seed", args.seed.to_string()),
+    ]);
+    let mut tables = pipeline::Tables::new(&data, metadata);
     let mut outcomes: Vec<Outcome> = conditions
         .iter()
         .map(|&condition| Outcome {
@@ -381,14 +376,13 @@ fn simulate_all(args: &ReproduceArgs, scale: &Scale) -> Result<Vec<Outcome>> {
         .flatten()
         .map(|(_, c)| *c)
         .collect();
-    let bar = experiment::progress_bar(experiment::agent_steps(&all), args.quiet);
+    total(pipeline::agent_steps(&all));
     for (task, entries) in &configs_by_task {
         let spec = Arc::new(env::load(task)?);
         let configs: Vec<RunConfig> = entries.iter().map(|(_, c)| *c).collect();
         let mut next = 0;
-        experiment::simulate(&spec, &configs, 1024, &bar, |batch: &Batch| {
-            runs_sink.write(&output::runs_batch(batch)?)?;
-            series_sink.write(&output::series_batch(batch)?)?;
+        pipeline::simulate(&spec, &configs, 1024, &mut progress, |batch: &Batch| {
+            tables.write(batch)?;
             for r in 0..batch.len() {
                 let outcome = &mut outcomes[entries[next].0];
                 outcome.runs.push(batch.stats()[r]);
@@ -398,9 +392,7 @@ fn simulate_all(args: &ReproduceArgs, scale: &Scale) -> Result<Vec<Outcome>> {
             Ok::<(), anyhow::Error>(())
         })?;
     }
-    bar.finish_and_clear();
-    runs_sink.finish()?;
-    series_sink.finish()?;
+    tables.finish()?;
     Ok(outcomes)
 }
 
@@ -495,7 +487,7 @@ struct Report<'a> {
     outcomes: &'a [Outcome],
     min_budgets: &'a [MinBudgetRow],
     scale: &'a Scale,
-    args: &'a ReproduceArgs,
+    args: &'a Options,
     seconds: f64,
 }
 
@@ -576,7 +568,7 @@ impl Report<'_> {
                 "| {} | {} | {} | {} | {} | {} | {} | {} | {:.3} |",
                 c.task,
                 c.label(),
-                c.interaction_name(),
+                c.interaction.name(),
                 c.budget,
                 o.runs.len(),
                 mean_sd(&o.reward()),
@@ -982,7 +974,7 @@ impl Report<'_> {
                                     } else {
                                         format!(
                                             "{} {}",
-                                            o.condition.interaction_name(),
+                                            o.condition.interaction.name(),
                                             o.condition.budget
                                         )
                                     }

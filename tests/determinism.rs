@@ -2,24 +2,18 @@
 //! threads, nor on how runs are grouped into batches (SPEC 7), in the library and end to end
 //! through the `mbmf run` binary and its Parquet files.
 
+mod common;
+
 use std::fs::File;
 use std::path::Path;
 use std::sync::Arc;
 
 use arrow::array::RecordBatch;
 use assert_cmd::Command;
-use indicatif::ProgressBar;
-use mbmf::batch::{Batch, Checkpoint, RunConfig, RunStats};
+use mbmf::batch::{Checkpoint, RunConfig, RunStats};
 use mbmf::env::{self, Spec};
-use mbmf::error::ConfigError;
-use mbmf::experiment;
 use mbmf::params::{Controller, HumanParams, Interaction, Params, Selection};
 use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
-
-const NAVWORLD: &str = concat!(
-    env!("CARGO_MANIFEST_DIR"),
-    "/../shared/data/navworld/realisticNavWorld.json"
-);
 
 /// Everything a run produces that must be reproducible.
 #[derive(Debug, Clone, PartialEq)]
@@ -86,34 +80,14 @@ fn simulate(
     threads: usize,
     batch_size: usize,
 ) -> Vec<Outcome> {
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .expect("thread pool");
-    pool.install(|| {
-        let mut out = Vec::new();
-        experiment::simulate(
-            spec,
-            configs,
-            batch_size,
-            &ProgressBar::hidden(),
-            |batch: &Batch| {
-                for r in 0..batch.len() {
-                    out.push(Outcome {
-                        stats: RunStats {
-                            wall_time_s: 0.0,
-                            ..batch.stats()[r]
-                        },
-                        series: batch.series(r).to_vec(),
-                        q_mf: batch.q_mf(r).iter().copied().collect(),
-                        q_mb: batch.q_mb(r).iter().copied().collect(),
-                    });
-                }
-                Ok::<(), ConfigError>(())
-            },
-        )
-        .expect("valid configs");
-        out
+    common::simulate(spec, configs, threads, batch_size, |batch, r| Outcome {
+        stats: RunStats {
+            wall_time_s: 0.0,
+            ..batch.stats()[r]
+        },
+        series: batch.series(r).to_vec(),
+        q_mf: batch.q_mf(r).iter().copied().collect(),
+        q_mb: batch.q_mb(r).iter().copied().collect(),
     })
 }
 
@@ -183,11 +157,9 @@ fn tidy1_results_do_not_depend_on_thread_count_or_batch_size() {
 
 #[test]
 fn stochastic_world_results_do_not_depend_on_thread_count_or_batch_size() {
-    if !Path::new(NAVWORLD).exists() {
-        eprintln!("skipped: {NAVWORLD} is absent (the authors' data is not in the repository)");
+    let Some(spec) = common::navworld() else {
         return;
-    }
-    let spec = Arc::new(env::load(&format!("json:{NAVWORLD}")).unwrap());
+    };
     // No human: json worlds define no interactions.
     let configs: Vec<RunConfig> = configs()
         .into_iter()

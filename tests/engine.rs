@@ -3,31 +3,16 @@
 //! step, babbling, the first-decision rule and the MF cost behave as SPEC 2.1, 3.4, 4, 6 and 7
 //! say; with q_init = 0 every controller acts uniformly at random until the first reward.
 
-use std::path::Path;
+mod common;
+
 use std::sync::Arc;
 
 use mbmf::batch::{Batch, RunConfig};
 use mbmf::env::{self, Spec};
 use mbmf::params::{Controller, HumanParams, Interaction, Params, Selection};
 
-const NAVWORLD: &str = concat!(
-    env!("CARGO_MANIFEST_DIR"),
-    "/../shared/data/navworld/realisticNavWorld.json"
-);
-
 fn spec(task: &str) -> Arc<Spec> {
     Arc::new(env::load(task).unwrap_or_else(|e| panic!("cannot load {task}: {e}")))
-}
-
-fn navworld() -> Option<Arc<Spec>> {
-    if Path::new(NAVWORLD).exists() {
-        Some(spec(&format!("json:{NAVWORLD}")))
-    } else {
-        eprintln!(
-            "navworld skipped: {NAVWORLD} is absent (the authors' data is not in the repository)"
-        );
-        None
-    }
 }
 
 fn short(controller: Controller) -> Params {
@@ -212,7 +197,9 @@ fn probabilities_entropies_models_costs_and_values_stay_well_formed_during_tidy_
 
 #[test]
 fn probabilities_entropies_models_costs_and_values_stay_well_formed_in_a_stochastic_world() {
-    let Some(nav) = navworld() else { return };
+    let Some(nav) = common::navworld() else {
+        return;
+    };
     let mut params: Vec<Params> = Controller::ALL.iter().map(|&c| short(c)).collect();
     params.push(Params {
         window_n: 3,
@@ -285,7 +272,7 @@ fn the_step_after_the_goal_returns_to_the_start_without_decision_cost_or_learnin
         },
     );
     assert!(resets >= 5, "only {resets} goals reached");
-    if let Some(nav) = navworld() {
+    if let Some(nav) = common::navworld() {
         let resets = check_reset_steps(nav, short(Controller::Rnd));
         assert!(resets >= 5, "only {resets} goals reached in navworld");
     }

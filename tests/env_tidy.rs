@@ -2,16 +2,13 @@
 //! against an independent statement of the rules, the tidy1 fixture in the authors' format, the
 //! JSON export round trip through the binary, and table invariants of every world.
 
+mod common;
+
 use std::collections::{HashMap, VecDeque};
-use std::path::Path;
 
 use assert_cmd::Command;
 use mbmf::env::{self, NO_TAKEOVER, Spec};
 
-const NAVWORLD: &str = concat!(
-    env!("CARGO_MANIFEST_DIR"),
-    "/../shared/data/navworld/realisticNavWorld.json"
-);
 const FIXTURE_DIR: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/tidy1");
 
 fn load(task: &str) -> Spec {
@@ -221,11 +218,10 @@ fn tidy2_has_142_states() {
 
 #[test]
 fn the_navigation_world_has_38_states_and_8_actions() {
-    if !Path::new(NAVWORLD).exists() {
-        eprintln!("skipped: {NAVWORLD} is absent (the authors' data is not in the repository)");
+    let Some(task) = common::navworld_task() else {
         return;
-    }
-    let spec = load(&format!("json:{NAVWORLD}"));
+    };
+    let spec = load(&task);
     assert_eq!((spec.n_states, spec.n_actions), (38, 8));
     assert_eq!(spec.initial_states, vec![0, 32]);
     assert_eq!((spec.goal, spec.goal_reward), (18, 1.0));
@@ -486,12 +482,8 @@ fn every_state_action_pair_has_cumulative_probabilities_ending_at_1() {
         load("tidy2"),
         load(&format!("json:{FIXTURE_DIR}/tidy1.json")),
     ];
-    if Path::new(NAVWORLD).exists() {
-        specs.push(load(&format!("json:{NAVWORLD}")));
-    } else {
-        eprintln!(
-            "navworld skipped: {NAVWORLD} is absent (the authors' data is not in the repository)"
-        );
+    if let Some(task) = common::navworld_task() {
+        specs.push(load(&task));
     }
     for spec in &specs {
         check_invariants(spec);
@@ -502,11 +494,10 @@ fn every_state_action_pair_has_cumulative_probabilities_ending_at_1() {
 fn outcomes_are_picked_in_proportion_to_their_counts() {
     // A stochastic pair of the navigation world (if present): the draw u falls into the
     // cumulative intervals.
-    if !Path::new(NAVWORLD).exists() {
-        eprintln!("skipped: {NAVWORLD} is absent (the authors' data is not in the repository)");
+    let Some(task) = common::navworld_task() else {
         return;
-    }
-    let spec = load(&format!("json:{NAVWORLD}"));
+    };
+    let spec = load(&task);
     let sa = (0..spec.n_states * spec.n_actions)
         .find(|&sa| spec.outcomes(sa).len() >= 2)
         .expect("a stochastic pair");

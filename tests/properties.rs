@@ -6,13 +6,12 @@
 //! `tests/determinism.rs` checks fixed configurations on 1, 2 and 8 threads and end to end; this
 //! file explores the parameter space. The normal run tries 64 cases; more with PROPTEST_CASES.
 
+mod common;
+
 use std::sync::Arc;
 
-use indicatif::ProgressBar;
 use mbmf::batch::{Batch, RunConfig, RunStats};
 use mbmf::env::{self, Spec};
-use mbmf::error::ConfigError;
-use mbmf::experiment;
 use mbmf::params::{Controller, HumanParams, Interaction, Params, Selection};
 use proptest::prelude::*;
 
@@ -40,25 +39,7 @@ fn simulate(
     threads: usize,
     batch_size: usize,
 ) -> Vec<String> {
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .expect("a thread pool");
-    pool.install(|| {
-        let mut out = Vec::new();
-        experiment::simulate(
-            spec,
-            configs,
-            batch_size,
-            &ProgressBar::hidden(),
-            |batch: &Batch| {
-                out.extend((0..batch.len()).map(|r| fingerprint(batch, r)));
-                Ok::<(), ConfigError>(())
-            },
-        )
-        .expect("valid configurations");
-        out
-    })
+    common::simulate(spec, configs, threads, batch_size, fingerprint)
 }
 
 /// Random but valid parameters of one run, short enough for many cases.

@@ -24,28 +24,35 @@ fn quick_reproduction_writes_data_figures_and_a_verdict_for_every_claim() {
     );
 
     let report = std::fs::read_to_string(out.join("report.md")).unwrap();
-    for claim in [
-        "1",
-        "2",
-        "3 (softmax MC)",
-        "3 (argmax MC)",
-        "4",
-        "5",
-        "6",
-        "T2-a",
-        "T2-b",
-    ] {
+    // Quick mode is too small for most claims (claims 1 and 4 flip between seeds 2020, 7 and 99),
+    // but with 4 runs these verdicts came out the same for all three seeds: MB's cost far above
+    // RND's, RND's above MF's, EC not within 2 x MF (claim 3); takeover helping every controller
+    // but congratulation not all (claim 5); some of the paper's minimal budgets confirmed
+    // (claim 6). The seed is fixed (2020), so this run is exactly one of those three.
+    let expected = [
+        ("1", None),
+        ("2", None),
+        ("3 (softmax MC)", Some("partly holds")),
+        ("3 (argmax MC)", Some("partly holds")),
+        ("4", None),
+        ("5", Some("partly holds")),
+        ("6", Some("partly holds")),
+        ("T2-a", None),
+        ("T2-b", None),
+    ];
+    for (claim, want) in expected {
         let heading = format!("### Claim {claim}:");
         let at = report
             .find(&heading)
             .unwrap_or_else(|| panic!("no {heading} in the report"));
-        let verdict = &report[at..];
-        assert!(
-            ["**holds.**", "**partly holds.**", "**does not hold.**"]
-                .iter()
-                .any(|v| verdict.lines().nth(2).is_some_and(|l| l.starts_with(v))),
-            "claim {claim} has no verdict"
-        );
+        let line = report[at..].lines().nth(2).unwrap_or_default();
+        let verdict = ["holds", "partly holds", "does not hold"]
+            .into_iter()
+            .find(|v| line.starts_with(&format!("**{v}.**")))
+            .unwrap_or_else(|| panic!("claim {claim} has no verdict: {line}"));
+        if let Some(want) = want {
+            assert_eq!(verdict, want, "claim {claim}: {line}");
+        }
     }
     assert!(report.contains("Quick mode"));
 

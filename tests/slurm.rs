@@ -3,12 +3,12 @@
 //! single-process run. Without Slurm the test is skipped with a message, except under CI
 //! (`CI=true`), where a missing Slurm fails it.
 
-mod sweep_support;
+mod common;
 
 use std::path::Path;
 use std::process::Command;
 
-use sweep_support::*;
+use common::*;
 
 /// Why Slurm cannot be used here, if it cannot.
 fn slurm_missing() -> Option<String> {

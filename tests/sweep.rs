@@ -2,14 +2,14 @@
 //! (equal to `mbmf run` for the same runs, to a resumed run, and to the union of shards), the
 //! lock, and failures of the output folder (unwritable, full disk).
 
-mod sweep_support;
+mod common;
 
 use std::path::Path;
 
+use common::*;
 use mbmf::params::{Controller, Interaction, Profile};
 use mbmf::sweep::keys::Value;
 use mbmf::sweep::{Shard, Sweep};
-use sweep_support::*;
 
 fn parse(text: &str) -> Sweep {
     Sweep::parse("test.toml", Path::new("."), text).unwrap_or_else(|e| panic!("{e}"))

@@ -2,13 +2,13 @@
 //! that no visible file is truncated, resume (sometimes killing the resume too), and check that
 //! the dataset equals an uninterrupted run's: no lost and no duplicated row.
 
-mod sweep_support;
+mod common;
 
 use std::path::Path;
 use std::process::{Child, Stdio};
 use std::time::{Duration, Instant};
 
-use sweep_support::*;
+use common::*;
 
 /// 6 configurations x 6 seeds = 36 runs in 12 parts of 3: about 0.3 s, much of it in fsync.
 const KILL_SWEEP: &str = r#"

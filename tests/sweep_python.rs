@@ -2,12 +2,12 @@
 //! and pandas `read_parquet("DIR/runs")`, with the real packages installed in `.venv` by
 //! `scripts/python-env.sh`. Skipped with a message when the venv is missing, except under CI.
 
-mod sweep_support;
+mod common;
 
 use std::path::PathBuf;
 use std::process::Command;
 
-use sweep_support::*;
+use common::*;
 
 /// The venv's python ($MBMF_PYTHON, else `.venv/bin/python`) if polars, pyarrow and pandas
 /// import there.

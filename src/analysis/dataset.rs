@@ -8,7 +8,7 @@
 //! nullable): whatever the Parquet writer chose (u32 or u64, Utf8 or LargeUtf8, dictionary or
 //! not) is widened to one of these, so files written by polars or pandas read the same way.
 
-use crate::error::edit_distance;
+use crate::suggest::edit_distance;
 use std::cmp::Ordering;
 use std::collections::{BTreeMap, BTreeSet};
 use std::fmt;

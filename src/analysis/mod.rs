@@ -4,7 +4,8 @@
 //! - [`front`] aggregates runs by configuration and finds the Pareto front (`mbmf pareto`).
 //! - [`compare`] tests a metric between groups of runs (`mbmf stats`).
 //! - [`min_budget`] finds the smallest sufficient interaction budget (`mbmf min-budget`).
-//! - [`pareto`] and [`stats`] hold the algorithms they use; [`cli`] the verbs' stories.
+//! - [`pareto`] and [`stats`] hold the algorithms they use; the verbs that print
+//!   them are the command line's.
 
 pub mod compare;
 pub mod dataset;
@@ -12,8 +13,6 @@ pub mod front;
 pub mod min_budget;
 pub mod pareto;
 pub mod stats;
-
-pub mod cli;
 
 use dataset::DatasetError;
 

@@ -15,9 +15,9 @@ use rand_xoshiro::Xoshiro256PlusPlus;
 use rayon::prelude::*;
 
 use crate::env::{Spec, StateId};
-use crate::error::ConfigError;
 use crate::expert::mb::{Model, Predecessors, dirty_words};
-use crate::params::{Interaction, Params};
+use crate::params::ConfigError;
+use crate::params::Params;
 
 pub use step::step;
 
@@ -223,7 +223,7 @@ impl Batch {
     /// zero costs, empty model) and places each in its initial state.
     pub fn new(spec: Arc<Spec>, configs: Vec<RunConfig>) -> Result<Batch, ConfigError> {
         for config in &configs {
-            validate_for_spec(&spec, &config.params)?;
+            config.params.validate_for(&spec)?;
         }
         let runs = configs.len();
         let (n_s, n_a) = (spec.n_states, spec.n_actions);
@@ -535,22 +535,4 @@ pub fn initial_state(spec: &Spec, rng: &mut Xoshiro256PlusPlus) -> StateId {
         1 => spec.initial_states[0],
         n => spec.initial_states[((uniform(rng) * n as f64) as usize).min(n - 1)],
     }
-}
-
-/// Checks that the parameters make sense for this environment (SPEC 5: no interactions where the
-/// task does not define them).
-pub fn validate_for_spec(spec: &Spec, params: &Params) -> Result<(), ConfigError> {
-    params.validate()?;
-    // Values and totals must stay finite with this environment's reward (issue 7).
-    params.validate_for_reward(spec.goal_reward)?;
-    if params.human.interaction != Interaction::None
-        && params.human.budget > 0
-        && spec.human.is_none()
-    {
-        return Err(ConfigError::InteractionUnsupported {
-            task: spec.name.clone(),
-            interaction: format!("{:?}", params.human.interaction).to_lowercase(),
-        });
-    }
-    Ok(())
 }

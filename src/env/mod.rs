@@ -12,8 +12,6 @@ pub mod tidy;
 
 use std::path::PathBuf;
 
-use crate::error::EnvError;
-
 /// Index of a state in a [`Spec`] (the environment's own ids).
 pub type StateId = u32;
 
@@ -190,6 +188,50 @@ impl JsonPaths {
     }
 }
 
+/// Failure to build an environment.
+#[derive(Debug, thiserror::Error)]
+pub enum EnvError {
+    /// The task name is none of the known ones.
+    #[error(
+        "unknown task '{0}': {hint}expected tidy1, tidy2 or json:PATH (the authors' \
+         transition-model file, with keyStates.txt and spaces.txt beside it)",
+        hint = task_hint(.0)
+    )]
+    UnknownTask(String),
+    /// A `grid:N` task whose N is not an accepted number of states.
+    #[error("invalid task '{task}': {error}")]
+    Grid {
+        /// The task as given.
+        task: String,
+        /// What is wrong with N.
+        error: grid::GridError,
+    },
+    /// A `json:` environment's files are malformed.
+    #[error(transparent)]
+    File(#[from] crate::env::json::EnvFileError),
+}
+
+/// The built-in task names.
+const TASKS: [&str; 2] = ["tidy1", "tidy2"];
+
+/// "did you mean ...? " for a task name that is not known, or nothing when no guess is close.
+fn task_hint(task: &str) -> String {
+    let lower = task.to_lowercase();
+    // A mistyped prefix ("JSON:x", "json=x"), or a path given without its prefix.
+    let path = ["json:", "json="].iter().find_map(|p| {
+        task.get(..p.len())
+            .filter(|head| head.eq_ignore_ascii_case(p))
+            .map(|_| &task[p.len()..])
+    });
+    let guess = match path {
+        Some(rest) if !rest.is_empty() => Some(format!("json:{rest}")),
+        Some(_) => None,
+        None if task.contains('/') || lower.ends_with(".json") => Some(format!("json:{task}")),
+        None => crate::suggest::closest(&lower, TASKS).map(str::to_string),
+    };
+    guess.map_or_else(String::new, |g| format!("did you mean '{g}'? "))
+}
+
 /// Builds the environment named by `task`: `tidy1`, `tidy2` or `json:PATH`.
 pub fn load(task: &str) -> Result<Spec, EnvError> {
     match task {
@@ -197,13 +239,46 @@ pub fn load(task: &str) -> Result<Spec, EnvError> {
         "tidy2" => Ok(tidy::build(tidy::Variant::Task2)),
         _ => {
             if let Some(n) = task.strip_prefix("grid:") {
-                // EnvError has no grid variant yet: the grid error travels in the task name.
-                grid::parse(n).map_err(|e| EnvError::UnknownTask(format!("{task} ({e})")))
+                grid::parse(n).map_err(|error| EnvError::Grid {
+                    task: task.to_string(),
+                    error,
+                })
             } else if let Some(path) = task.strip_prefix("json:") {
                 Ok(json::load(&JsonPaths::beside(path), task)?)
             } else {
                 Err(EnvError::UnknownTask(task.to_string()))
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod error_tests {
+    use super::*;
+
+    #[test]
+    fn a_misspelt_task_suggests_the_closest_built_in_one() {
+        let message = EnvError::UnknownTask("tidy3".into()).to_string();
+        assert!(message.contains("did you mean 'tidy1'?"), "{message}");
+        let message = EnvError::UnknownTask("Tidy2".into()).to_string();
+        assert!(message.contains("did you mean 'tidy2'?"), "{message}");
+    }
+
+    #[test]
+    fn a_path_without_its_json_prefix_suggests_adding_it() {
+        let message = EnvError::UnknownTask("data/world.json".into()).to_string();
+        assert!(message.contains("did you mean 'json:data/world.json'?"));
+        let message = EnvError::UnknownTask("JSON=data/w.json".into()).to_string();
+        assert!(
+            message.contains("did you mean 'json:data/w.json'?"),
+            "{message}"
+        );
+    }
+
+    #[test]
+    fn a_name_far_from_every_task_gets_no_guess() {
+        let message = EnvError::UnknownTask("gridworld".into()).to_string();
+        assert!(!message.contains("did you mean"), "{message}");
+        assert!(message.contains("expected tidy1, tidy2 or json:PATH"));
     }
 }

@@ -4,6 +4,10 @@
 //! Files are written to a temporary name beside the target and renamed when complete, so a
 //! killed job never leaves a truncated file under the final name.
 
+pub mod atomic;
+
+pub use atomic::write_atomic;
+
 use std::fs::File;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -115,11 +119,11 @@ where
     cols.u64("seed", c.clone().map(|r| r.seed));
     cols.str("task", c.clone().map(|_| task));
     cols.str("controller", c.clone().map(|r| r.params.controller.name()));
-    cols.str("selection", c.clone().map(|r| selection_name(&r.params)));
-    cols.str("cost_model", c.clone().map(|r| cost_model_name(&r.params)));
+    cols.str("selection", c.clone().map(|r| r.params.selection.name()));
+    cols.str("cost_model", c.clone().map(|r| r.params.cost_model.name()));
     cols.str(
         "interaction",
-        c.clone().map(|r| interaction_name(&r.params)),
+        c.clone().map(|r| r.params.human.interaction.name()),
     );
     cols.str("profile", c.clone().map(|r| r.params.profile.name()));
     cols.u32("budget", c.clone().map(|r| r.params.human.budget));
@@ -142,30 +146,6 @@ where
     cols.u32("steps", c.clone().map(|r| r.params.steps));
     cols.u32("babbling", c.clone().map(|r| r.params.babbling));
     cols.u32("checkpoint", c.map(|r| r.params.checkpoint));
-}
-
-fn selection_name(p: &crate::params::Params) -> &'static str {
-    match p.selection {
-        crate::params::Selection::Softmax => "softmax",
-        crate::params::Selection::Argmax => "argmax",
-    }
-}
-
-fn cost_model_name(p: &crate::params::Params) -> &'static str {
-    match p.cost_model {
-        crate::params::CostModel::Ops => "ops",
-        crate::params::CostModel::Wallclock => "wallclock",
-    }
-}
-
-/// Name of the interaction type, as on the command line.
-pub fn interaction_name(p: &crate::params::Params) -> &'static str {
-    match p.human.interaction {
-        crate::params::Interaction::None => "none",
-        crate::params::Interaction::Congratulation => "congratulation",
-        crate::params::Interaction::Takeover => "takeover",
-        crate::params::Interaction::Punishment => "punishment",
-    }
 }
 
 fn ratio(num: f64, den: u64) -> Option<f64> {
@@ -348,6 +328,23 @@ pub fn write_parquet(
     let mut sink = ParquetSink::new(path, metadata);
     sink.write(batch)?;
     sink.finish()
+}
+
+/// The key-value metadata of every file mbmf writes: the version, then `extra` in order.
+pub fn metadata<'a>(extra: impl IntoIterator<Item = (&'a str, String)>) -> Vec<(String, String)> {
+    std::iter::once(("mbmf_version", env!("CARGO_PKG_VERSION").to_string()))
+        .chain(extra)
+        .map(|(k, v)| (k.to_string(), v))
+        .collect()
+}
+
+/// The command line of this process, for the `mbmf_command` metadata entry. Lossy: an argument
+/// that is not UTF-8 (a path) must not stop a run.
+pub fn command_line() -> String {
+    std::env::args_os()
+        .map(|a| a.to_string_lossy().into_owned())
+        .collect::<Vec<_>>()
+        .join(" ")
 }
 
 /// Schema of a table, for documentation and checks: (name, type, nullable).

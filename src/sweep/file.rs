@@ -14,7 +14,7 @@ use toml::de::{DeTable, DeValue};
 
 use super::keys::{self, KEYS, Key, Kind, N_KEYS, Value};
 use crate::env::{self, Spec};
-use crate::error::ConfigError;
+use crate::params::ConfigError;
 use crate::params::{Params, Profile, default_steps};
 
 /// Top-level keys and sections of a sweep file.
@@ -146,9 +146,7 @@ fn known_keys() -> String {
 }
 
 fn suggestion(word: &str, candidates: &[&str]) -> String {
-    keys::closest(word, candidates.iter().copied())
-        .map(|c| format!("did you mean '{c}'? "))
-        .unwrap_or_default()
+    crate::suggest::hint(word, candidates.iter().copied())
 }
 
 fn type_name(v: &DeValue<'_>) -> &'static str {
@@ -219,6 +217,11 @@ struct Parser<'a> {
     src: Src<'a>,
     sources: Vec<Source>,
     profile_uses: Vec<(String, Range<usize>, String)>,
+    /// `[fixed]` values, in file order.
+    fixed: Vec<(Key, Value)>,
+    /// Axes with the position of their first key, to sort them into file order.
+    axes: Vec<(usize, Axis)>,
+    profiles: Vec<UserProfile>,
 }
 
 impl Parser<'_> {
@@ -240,6 +243,229 @@ impl Parser<'_> {
                 ),
             )
         })
+    }
+
+    /// `[fixed]`: one value per key.
+    fn fixed(&mut self, table: &DeTable<'_>) -> Result<(), SweepError> {
+        for (key_name, value) in entries(table) {
+            let key = self.key(key_name, "[fixed]")?;
+            if matches!(value.get_ref(), DeValue::Array(_) | DeValue::Table(_)) {
+                return Err(self.src.err(
+                    &value.span(),
+                    key.name(),
+                    format!(
+                        "key '{}' in [fixed] takes one value; put lists and ranges in [grid]",
+                        key.name()
+                    ),
+                ));
+            }
+            self.claim(key, &key_name.span(), "[fixed]")?;
+            let value = self.scalar(key, value, "[fixed]")?;
+            self.fixed.push((key, value));
+        }
+        Ok(())
+    }
+
+    /// `[grid]`: one axis per key, in file order.
+    fn grid(&mut self, table: &DeTable<'_>) -> Result<(), SweepError> {
+        for (key_name, value) in entries(table) {
+            let key = self.key(key_name, "[grid]")?;
+            self.claim(key, &key_name.span(), "[grid]")?;
+            let values = self.values(key, value, "[grid]")?;
+            self.axes.push((
+                key_name.span().start,
+                Axis {
+                    keys: vec![key],
+                    values: values.into_iter().map(|v| vec![v]).collect(),
+                    section: "[grid]".into(),
+                },
+            ));
+        }
+        Ok(())
+    }
+
+    /// `[[zip]]`: one axis per table, whose lists vary together.
+    fn zip(
+        &mut self,
+        k: &Spanned<std::borrow::Cow<'_, str>>,
+        v: &Spanned<DeValue<'_>>,
+    ) -> Result<(), SweepError> {
+        let groups: Vec<&Spanned<DeValue<'_>>> = match v.get_ref() {
+            DeValue::Array(items) => items.iter().collect(),
+            DeValue::Table(_) => vec![v],
+            other => {
+                return Err(self.src.err(
+                    &k.span(),
+                    "zip",
+                    format!(
+                        "'zip' must be one or more [[zip]] tables, found {}",
+                        type_name(other)
+                    ),
+                ));
+            }
+        };
+        for (g, group) in groups.into_iter().enumerate() {
+            let section = format!("[[zip]] #{}", g + 1);
+            let DeValue::Table(t) = group.get_ref() else {
+                return Err(self.src.err(
+                    &group.span(),
+                    "zip",
+                    format!("{section} must be a table of lists"),
+                ));
+            };
+            let mut zkeys = Vec::new();
+            let mut columns: Vec<(Vec<Value>, Range<usize>)> = Vec::new();
+            for (key_name, value) in entries(t) {
+                let key = self.key(key_name, &section)?;
+                self.claim(key, &key_name.span(), &section)?;
+                let values = self.values(key, value, &section)?;
+                zkeys.push(key);
+                columns.push((values, key_name.span()));
+            }
+            let Some((first, first_span)) = columns.first() else {
+                return Err(self.src.err(
+                    &group.span(),
+                    "zip",
+                    format!("{section} is empty: give two or more lists of equal length"),
+                ));
+            };
+            let n = first.len();
+            if let Some((_, span)) = columns.iter().find(|(c, _)| c.len() != n) {
+                let lengths = zkeys
+                    .iter()
+                    .zip(&columns)
+                    .map(|(k, (c, _))| format!("{} has {}", k.name(), c.len()))
+                    .collect::<Vec<_>>()
+                    .join(", ");
+                return Err(self.src.err(
+                    span,
+                    "zip",
+                    format!("the lists of {section} vary together and must have the same length: {lengths}"),
+                ));
+            }
+            let values = (0..n)
+                .map(|i| columns.iter().map(|(c, _)| c[i].clone()).collect())
+                .collect();
+            self.axes.push((
+                first_span.start,
+                Axis {
+                    keys: zkeys,
+                    values,
+                    section,
+                },
+            ));
+        }
+        Ok(())
+    }
+
+    /// `[profiles.NAME]`: user-defined humans.
+    fn profiles(&mut self, table: &DeTable<'_>) -> Result<(), SweepError> {
+        for (pname, body) in entries(table) {
+            let name = pname
+                .get_ref()
+                .trim()
+                .to_ascii_lowercase()
+                .replace('_', "-");
+            let section = format!("[profiles.{name}]");
+            let valid =
+                !name.is_empty() && name.chars().all(|c| c.is_ascii_alphanumeric() || c == '-');
+            if !valid || name == "custom" || builtin_profile_names().contains(&name.as_str()) {
+                return Err(self.src.err(
+                    &pname.span(),
+                    "profiles",
+                    format!(
+                        "profile name '{}' is not allowed: use letters, digits and '-', and none of the built-in names ({}, custom)",
+                        pname.get_ref(),
+                        builtin_profile_names().join(", ")
+                    ),
+                ));
+            }
+            let DeValue::Table(t) = body.get_ref() else {
+                return Err(self.src.err(
+                    &pname.span(),
+                    "profiles",
+                    format!("{section} must be a table of parameter values"),
+                ));
+            };
+            let mut values = Vec::new();
+            for (key_name, value) in entries(t) {
+                let key = self.key(key_name, &section)?;
+                if key == Key::Profile {
+                    return Err(self.src.err(
+                        &key_name.span(),
+                        "profile",
+                        format!("{section} cannot set 'profile' itself"),
+                    ));
+                }
+                if matches!(value.get_ref(), DeValue::Array(_) | DeValue::Table(_)) {
+                    return Err(self.src.err(
+                        &value.span(),
+                        key.name(),
+                        format!("key '{}' in {section} takes one value", key.name()),
+                    ));
+                }
+                if values.iter().any(|(k, _)| *k == key) {
+                    return Err(self.src.err(
+                        &key_name.span(),
+                        key.name(),
+                        format!("key '{}' appears twice in {section}", key.name()),
+                    ));
+                }
+                values.push((key, self.scalar(key, value, &section)?));
+                self.sources.push(Source {
+                    key,
+                    line: self.src.line(&key_name.span()),
+                    section: section.clone(),
+                });
+            }
+            self.profiles.push(UserProfile { name, values });
+        }
+        Ok(())
+    }
+
+    /// Profiles may be defined after they are used, so names are checked at the end.
+    fn check_profile_uses(&self) -> Result<(), SweepError> {
+        for (name, span, section) in &self.profile_uses {
+            let defined = self.profiles.iter().any(|u| &u.name == name);
+            if !defined && !builtin_profile_names().contains(&name.as_str()) {
+                let mut names = builtin_profile_names();
+                names.extend(self.profiles.iter().map(|u| u.name.as_str()));
+                return Err(self.src.err(
+                    span,
+                    "profile",
+                    format!(
+                        "key 'profile' in {section}: unknown profile '{name}'; {}known profiles: {} (define others in [profiles.NAME])",
+                        suggestion(name, &names),
+                        names.join(", ")
+                    ),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// Configurations of `axes`, refused beyond 2^64 (and beyond 2^64 runs with `seeds`).
+    fn configurations(&self, axes: &[Axis], seeds: u32) -> Result<u64, SweepError> {
+        let mut configurations: u64 = 1;
+        for axis in axes {
+            configurations = configurations
+                .checked_mul(axis.values.len() as u64)
+                .ok_or_else(|| {
+                    self.src.err(
+                        &(0..0),
+                        "grid",
+                        "the grid has more than 2^64 configurations".into(),
+                    )
+                })?;
+        }
+        if configurations.checked_mul(u64::from(seeds)).is_none() {
+            return Err(self.src.err(
+                &(0..0),
+                "seeds",
+                "configurations x seeds exceeds 2^64 runs".into(),
+            ));
+        }
+        Ok(configurations)
     }
 
     /// Records that `key` is set in `section`; a key may be set once across [fixed], [grid] and
@@ -640,6 +866,44 @@ impl Parser<'_> {
     }
 }
 
+/// The tasks a sweep runs, in first-use order; tidy1 when some configurations set none.
+fn tasks(fixed: &[(Key, Value)], axes: &[Axis], profiles: &[UserProfile]) -> Vec<String> {
+    let mut tasks: Vec<String> = Vec::new();
+    let mut task_set = false;
+    let all_values = fixed
+        .iter()
+        .map(|(k, v)| (*k, v))
+        .chain(axes.iter().flat_map(|a| {
+            a.values
+                .iter()
+                .flat_map(move |row| a.keys.iter().copied().zip(row.iter()))
+        }))
+        .chain(
+            profiles
+                .iter()
+                .flat_map(|u| u.values.iter().map(|(k, v)| (*k, v))),
+        );
+    for (key, value) in all_values {
+        if key == Key::Task {
+            task_set = true;
+            let name = value.to_string();
+            if !tasks.contains(&name) {
+                tasks.push(name);
+            }
+        }
+    }
+    // A task left unset anywhere (or set only by some profiles) falls back to tidy1.
+    let fixed_or_axis_task = fixed.iter().any(|(k, _)| *k == Key::Task)
+        || axes.iter().any(|a| a.keys.contains(&Key::Task));
+    if !task_set || !fixed_or_axis_task {
+        let default = "tidy1".to_string();
+        if !tasks.contains(&default) {
+            tasks.push(default);
+        }
+    }
+    tasks
+}
+
 impl Sweep {
     /// Reads and parses the sweep file at `path`.
     pub fn load(path: &Path) -> Result<Sweep, SweepError> {
@@ -663,12 +927,12 @@ impl Sweep {
             src,
             sources: Vec::new(),
             profile_uses: Vec::new(),
+            fixed: Vec::new(),
+            axes: Vec::new(),
+            profiles: Vec::new(),
         };
         let mut seeds = 1u32;
         let mut master_seed = 1u64;
-        let mut fixed = Vec::new();
-        let mut axes: Vec<(usize, Axis)> = Vec::new();
-        let mut profiles: Vec<UserProfile> = Vec::new();
         for (k, v) in entries(root.get_ref()) {
             let name = keys::normalise(k.get_ref());
             let table = |p: &Parser<'_>| match v.get_ref() {
@@ -700,169 +964,10 @@ impl Sweep {
                             )
                         })?;
                 }
-                "fixed" => {
-                    for (key_name, value) in entries(table(&p)?) {
-                        let key = p.key(key_name, "[fixed]")?;
-                        if matches!(value.get_ref(), DeValue::Array(_) | DeValue::Table(_)) {
-                            return Err(p.src.err(
-                                &value.span(),
-                                key.name(),
-                                format!("key '{}' in [fixed] takes one value; put lists and ranges in [grid]", key.name()),
-                            ));
-                        }
-                        p.claim(key, &key_name.span(), "[fixed]")?;
-                        fixed.push((key, p.scalar(key, value, "[fixed]")?));
-                    }
-                }
-                "grid" => {
-                    for (key_name, value) in entries(table(&p)?) {
-                        let key = p.key(key_name, "[grid]")?;
-                        p.claim(key, &key_name.span(), "[grid]")?;
-                        let values = p.values(key, value, "[grid]")?;
-                        axes.push((
-                            key_name.span().start,
-                            Axis {
-                                keys: vec![key],
-                                values: values.into_iter().map(|v| vec![v]).collect(),
-                                section: "[grid]".into(),
-                            },
-                        ));
-                    }
-                }
-                "zip" => {
-                    let groups: Vec<&Spanned<DeValue<'_>>> = match v.get_ref() {
-                        DeValue::Array(items) => items.iter().collect(),
-                        DeValue::Table(_) => vec![v],
-                        other => {
-                            return Err(p.src.err(
-                                &k.span(),
-                                "zip",
-                                format!(
-                                    "'zip' must be one or more [[zip]] tables, found {}",
-                                    type_name(other)
-                                ),
-                            ));
-                        }
-                    };
-                    for (g, group) in groups.into_iter().enumerate() {
-                        let section = format!("[[zip]] #{}", g + 1);
-                        let DeValue::Table(t) = group.get_ref() else {
-                            return Err(p.src.err(
-                                &group.span(),
-                                "zip",
-                                format!("{section} must be a table of lists"),
-                            ));
-                        };
-                        let mut zkeys = Vec::new();
-                        let mut columns: Vec<(Vec<Value>, Range<usize>)> = Vec::new();
-                        for (key_name, value) in entries(t) {
-                            let key = p.key(key_name, &section)?;
-                            p.claim(key, &key_name.span(), &section)?;
-                            let values = p.values(key, value, &section)?;
-                            zkeys.push(key);
-                            columns.push((values, key_name.span()));
-                        }
-                        let Some((first, first_span)) = columns.first() else {
-                            return Err(p.src.err(
-                                &group.span(),
-                                "zip",
-                                format!(
-                                    "{section} is empty: give two or more lists of equal length"
-                                ),
-                            ));
-                        };
-                        let n = first.len();
-                        if let Some((_, span)) = columns.iter().find(|(c, _)| c.len() != n) {
-                            let lengths = zkeys
-                                .iter()
-                                .zip(&columns)
-                                .map(|(k, (c, _))| format!("{} has {}", k.name(), c.len()))
-                                .collect::<Vec<_>>()
-                                .join(", ");
-                            return Err(p.src.err(
-                                span,
-                                "zip",
-                                format!("the lists of {section} vary together and must have the same length: {lengths}"),
-                            ));
-                        }
-                        let values = (0..n)
-                            .map(|i| columns.iter().map(|(c, _)| c[i].clone()).collect())
-                            .collect();
-                        axes.push((
-                            first_span.start,
-                            Axis {
-                                keys: zkeys,
-                                values,
-                                section,
-                            },
-                        ));
-                    }
-                }
-                "profiles" => {
-                    for (pname, body) in entries(table(&p)?) {
-                        let name = pname
-                            .get_ref()
-                            .trim()
-                            .to_ascii_lowercase()
-                            .replace('_', "-");
-                        let section = format!("[profiles.{name}]");
-                        let valid = !name.is_empty()
-                            && name.chars().all(|c| c.is_ascii_alphanumeric() || c == '-');
-                        if !valid
-                            || name == "custom"
-                            || builtin_profile_names().contains(&name.as_str())
-                        {
-                            return Err(p.src.err(
-                                &pname.span(),
-                                "profiles",
-                                format!(
-                                    "profile name '{}' is not allowed: use letters, digits and '-', and none of the built-in names ({}, custom)",
-                                    pname.get_ref(),
-                                    builtin_profile_names().join(", ")
-                                ),
-                            ));
-                        }
-                        let DeValue::Table(t) = body.get_ref() else {
-                            return Err(p.src.err(
-                                &pname.span(),
-                                "profiles",
-                                format!("{section} must be a table of parameter values"),
-                            ));
-                        };
-                        let mut values = Vec::new();
-                        for (key_name, value) in entries(t) {
-                            let key = p.key(key_name, &section)?;
-                            if key == Key::Profile {
-                                return Err(p.src.err(
-                                    &key_name.span(),
-                                    "profile",
-                                    format!("{section} cannot set 'profile' itself"),
-                                ));
-                            }
-                            if matches!(value.get_ref(), DeValue::Array(_) | DeValue::Table(_)) {
-                                return Err(p.src.err(
-                                    &value.span(),
-                                    key.name(),
-                                    format!("key '{}' in {section} takes one value", key.name()),
-                                ));
-                            }
-                            if values.iter().any(|(k, _)| *k == key) {
-                                return Err(p.src.err(
-                                    &key_name.span(),
-                                    key.name(),
-                                    format!("key '{}' appears twice in {section}", key.name()),
-                                ));
-                            }
-                            values.push((key, p.scalar(key, value, &section)?));
-                            p.sources.push(Source {
-                                key,
-                                line: p.src.line(&key_name.span()),
-                                section: section.clone(),
-                            });
-                        }
-                        profiles.push(UserProfile { name, values });
-                    }
-                }
+                "fixed" => p.fixed(table(&p)?)?,
+                "grid" => p.grid(table(&p)?)?,
+                "zip" => p.zip(k, v)?,
+                "profiles" => p.profiles(table(&p)?)?,
                 _ => {
                     let message = if let Some(key) = Key::lookup(&name) {
                         format!(
@@ -881,77 +986,16 @@ impl Sweep {
                 }
             }
         }
-        // Profiles may be defined after they are used, so names are checked at the end.
-        for (name, span, section) in &p.profile_uses {
-            let defined = profiles.iter().any(|u| &u.name == name);
-            if !defined && !builtin_profile_names().contains(&name.as_str()) {
-                let mut names = builtin_profile_names();
-                names.extend(profiles.iter().map(|u| u.name.as_str()));
-                return Err(p.src.err(
-                    span,
-                    "profile",
-                    format!(
-                        "key 'profile' in {section}: unknown profile '{name}'; {}known profiles: {} (define others in [profiles.NAME])",
-                        suggestion(name, &names),
-                        names.join(", ")
-                    ),
-                ));
-            }
-        }
+        p.check_profile_uses()?;
+        let mut axes = std::mem::take(&mut p.axes);
         axes.sort_by_key(|(start, _)| *start);
         let axes: Vec<Axis> = axes.into_iter().map(|(_, a)| a).collect();
-        let mut configurations: u64 = 1;
-        for axis in &axes {
-            configurations = configurations
-                .checked_mul(axis.values.len() as u64)
-                .ok_or_else(|| {
-                    p.src.err(
-                        &(0..0),
-                        "grid",
-                        "the grid has more than 2^64 configurations".into(),
-                    )
-                })?;
-        }
-        if configurations.checked_mul(u64::from(seeds)).is_none() {
-            return Err(p.src.err(
-                &(0..0),
-                "seeds",
-                "configurations x seeds exceeds 2^64 runs".into(),
-            ));
-        }
-        let mut tasks: Vec<String> = Vec::new();
-        let mut task_set = false;
-        let all_values = fixed
-            .iter()
-            .map(|(k, v)| (*k, v))
-            .chain(axes.iter().flat_map(|a| {
-                a.values
-                    .iter()
-                    .flat_map(move |row| a.keys.iter().copied().zip(row.iter()))
-            }))
-            .chain(
-                profiles
-                    .iter()
-                    .flat_map(|u| u.values.iter().map(|(k, v)| (*k, v))),
-            );
-        for (key, value) in all_values {
-            if key == Key::Task {
-                task_set = true;
-                let name = value.to_string();
-                if !tasks.contains(&name) {
-                    tasks.push(name);
-                }
-            }
-        }
-        // A task left unset anywhere (or set only by some profiles) falls back to tidy1.
-        let fixed_or_axis_task = fixed.iter().any(|(k, _)| *k == Key::Task)
-            || axes.iter().any(|a| a.keys.contains(&Key::Task));
-        if !task_set || !fixed_or_axis_task {
-            let default = "tidy1".to_string();
-            if !tasks.contains(&default) {
-                tasks.push(default);
-            }
-        }
+        let configurations = p.configurations(&axes, seeds)?;
+        let (fixed, profiles) = (
+            std::mem::take(&mut p.fixed),
+            std::mem::take(&mut p.profiles),
+        );
+        let tasks = tasks(&fixed, &axes, &profiles);
         let mut profile_names = vec!["none".to_string(), "custom".to_string()];
         profile_names.extend(
             builtin_profile_names()
@@ -1146,7 +1190,7 @@ impl Sweep {
     pub fn check(&self, specs: &[Arc<Spec>]) -> Result<(), SweepError> {
         for config in 0..self.configurations {
             let r = self.resolve(config);
-            if let Err(e) = crate::batch::validate_for_spec(&specs[r.task], &r.params) {
+            if let Err(e) = r.params.validate_for(&specs[r.task]) {
                 // Not an exhaustive match, so a new error kind elsewhere does not break this.
                 let key = if let ConfigError::InvalidParam { name, .. } = &e {
                     Key::from_flag(name).unwrap_or(Key::Task)

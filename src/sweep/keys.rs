@@ -1,64 +1,9 @@
 //! The parameters a sweep file may set: one key per `mbmf run` flag (snake or kebab case), each
 //! with its kind of value, and how a value is applied to a run's [`Params`].
 
-use crate::error::edit_distance;
 use std::fmt;
 
-use crate::params::{Controller, CostModel, Interaction, Params, Selection};
-
-/// A parameter a sweep file may set.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub enum Key {
-    /// `task`: tidy1, tidy2 or json:PATH.
-    Task,
-    /// `controller`.
-    Controller,
-    /// `selection`.
-    Selection,
-    /// `cost_model`.
-    CostModel,
-    /// `alpha_mf`.
-    AlphaMf,
-    /// `gamma_mf`.
-    GammaMf,
-    /// `gamma_mb`.
-    GammaMb,
-    /// `tau`.
-    Tau,
-    /// `q_init`.
-    QInit,
-    /// `window_n`.
-    WindowN,
-    /// `vi_epsilon`.
-    ViEpsilon,
-    /// `vi_max_sweeps`.
-    ViMaxSweeps,
-    /// `filter_alpha`.
-    FilterAlpha,
-    /// `kappa_coeff`.
-    KappaCoeff,
-    /// `normalise_entropy`.
-    NormaliseEntropy,
-    /// `profile`: a built-in human or one defined in `[profiles.NAME]`.
-    Profile,
-    /// `interaction`.
-    Interaction,
-    /// `budget`.
-    Budget,
-    /// `zeta`.
-    Zeta,
-    /// `forget`.
-    Forget,
-    /// `steps`.
-    Steps,
-    /// `babbling`.
-    Babbling,
-    /// `checkpoint`.
-    Checkpoint,
-}
-
-/// Number of keys (the length of [`KEYS`]).
-pub const N_KEYS: usize = 23;
+use crate::params::Params;
 
 /// What values a key takes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -101,185 +46,55 @@ pub const COST_MODELS: &[&str] = &["ops", "wallclock"];
 /// Names of the interaction types.
 pub const INTERACTIONS: &[&str] = &["none", "congratulation", "takeover", "punishment"];
 
-/// Every key, in the order listings show them (a [`Key`] indexes this array).
-pub const KEYS: [KeyInfo; N_KEYS] = [
-    info(
-        Key::Task,
-        "task",
-        &[],
-        Kind::Task,
-        "tidy1, tidy2, json:PATH (PATH relative to the sweep file), or any task of mbmf run",
-    ),
-    info(
-        Key::Controller,
-        "controller",
-        &[],
-        Kind::Choice(CONTROLLERS),
-        "meta-controller",
-    ),
-    info(
-        Key::Selection,
-        "selection",
-        &[],
-        Kind::Choice(SELECTIONS),
-        "MC selection rule (default softmax)",
-    ),
-    info(
-        Key::CostModel,
-        "cost_model",
-        &[],
-        Kind::Choice(COST_MODELS),
-        "inference cost measure (default ops)",
-    ),
-    info(
-        Key::AlphaMf,
-        "alpha_mf",
-        &[],
-        Kind::Real,
-        "MF learning rate (default 0.6)",
-    ),
-    info(
-        Key::GammaMf,
-        "gamma_mf",
-        &[],
-        Kind::Real,
-        "MF discount (default 0.9)",
-    ),
-    info(
-        Key::GammaMb,
-        "gamma_mb",
-        &[],
-        Kind::Real,
-        "MB discount (default 0.95)",
-    ),
-    info(
-        Key::Tau,
-        "tau",
-        &[],
-        Kind::Real,
-        "softmax temperature (default 0.02)",
-    ),
-    info(
-        Key::QInit,
-        "q_init",
-        &[],
-        Kind::Real,
-        "initial action values (default 0)",
-    ),
-    info(
-        Key::WindowN,
-        "window_n",
-        &[],
-        Kind::Count,
-        "MB transition window (default 10)",
-    ),
-    info(
-        Key::ViEpsilon,
-        "vi_epsilon",
-        &[],
-        Kind::Real,
-        "value-iteration tolerance (default 0.01)",
-    ),
-    info(
-        Key::ViMaxSweeps,
-        "vi_max_sweeps",
-        &[],
-        Kind::Count,
-        "value-iteration sweep cap (default 10000)",
-    ),
-    info(
-        Key::FilterAlpha,
-        "filter_alpha",
-        &[],
-        Kind::Real,
-        "moving-average weight (default 0.6)",
-    ),
-    info(
-        Key::KappaCoeff,
-        "kappa_coeff",
-        &["kappa"],
-        Kind::Real,
-        "EC cost weight coefficient (default 9)",
-    ),
-    info(
-        Key::NormaliseEntropy,
-        "normalise_entropy",
-        &["normalize_entropy"],
-        Kind::Switch,
-        "normalise entropies (default true)",
-    ),
-    info(
-        Key::Profile,
-        "profile",
-        &[],
-        Kind::Profile,
-        "named human: built-in or [profiles.NAME]",
-    ),
-    info(
-        Key::Interaction,
-        "interaction",
-        &[],
-        Kind::Choice(INTERACTIONS),
-        "interaction type (default none)",
-    ),
-    info(
-        Key::Budget,
-        "budget",
-        &[],
-        Kind::Count,
-        "interactions per run (default 0)",
-    ),
-    info(
-        Key::Zeta,
-        "zeta",
-        &[],
-        Kind::Real,
-        "congratulation/punishment weight (default 0.1)",
-    ),
-    info(
-        Key::Forget,
-        "forget",
-        &["forget_prob"],
-        Kind::Real,
-        "probability the human is inattentive (default 0.1)",
-    ),
-    info(
-        Key::Steps,
-        "steps",
-        &[],
-        Kind::Count,
-        "experiment steps (default 10000; 20000 for tidy2)",
-    ),
-    info(
-        Key::Babbling,
-        "babbling",
-        &[],
-        Kind::Count,
-        "babbling steps (default 1000)",
-    ),
-    info(
-        Key::Checkpoint,
-        "checkpoint",
-        &[],
-        Kind::Count,
-        "series row every this many steps (default 100)",
-    ),
-];
+/// Declares [`Key`], [`KEYS`] and [`N_KEYS`] from one row per key: variant, name, aliases, kind
+/// of value and help line.
+macro_rules! keys {
+    ($($key:ident $name:literal [$($alias:literal),*] $kind:expr, $doc:literal;)*) => {
+        /// A parameter a sweep file may set.
+        #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+        pub enum Key {
+            $(#[doc = $doc] $key,)*
+        }
 
-const fn info(
-    key: Key,
-    name: &'static str,
-    aliases: &'static [&'static str],
-    kind: Kind,
-    doc: &'static str,
-) -> KeyInfo {
-    KeyInfo {
-        key,
-        name,
-        aliases,
-        kind,
-        doc,
-    }
+        /// Number of keys (the length of [`KEYS`]).
+        pub const N_KEYS: usize = [$($name),*].len();
+
+        /// Every key, in the order listings show them (a [`Key`] indexes this array).
+        pub const KEYS: [KeyInfo; N_KEYS] = [$(KeyInfo {
+            key: Key::$key,
+            name: $name,
+            aliases: &[$($alias),*],
+            kind: $kind,
+            doc: $doc,
+        },)*];
+    };
+}
+
+#[rustfmt::skip]
+keys! {
+    Task "task" [] Kind::Task, "tidy1, tidy2, json:PATH (PATH relative to the sweep file), or any task of mbmf run";
+    Controller "controller" [] Kind::Choice(CONTROLLERS), "meta-controller";
+    Selection "selection" [] Kind::Choice(SELECTIONS), "MC selection rule (default softmax)";
+    CostModel "cost_model" [] Kind::Choice(COST_MODELS), "inference cost measure (default ops)";
+    AlphaMf "alpha_mf" [] Kind::Real, "MF learning rate (default 0.6)";
+    GammaMf "gamma_mf" [] Kind::Real, "MF discount (default 0.9)";
+    GammaMb "gamma_mb" [] Kind::Real, "MB discount (default 0.95)";
+    Tau "tau" [] Kind::Real, "softmax temperature (default 0.02)";
+    QInit "q_init" [] Kind::Real, "initial action values (default 0)";
+    WindowN "window_n" [] Kind::Count, "MB transition window (default 10)";
+    ViEpsilon "vi_epsilon" [] Kind::Real, "value-iteration tolerance (default 0.01)";
+    ViMaxSweeps "vi_max_sweeps" [] Kind::Count, "value-iteration sweep cap (default 10000)";
+    FilterAlpha "filter_alpha" [] Kind::Real, "moving-average weight (default 0.6)";
+    KappaCoeff "kappa_coeff" ["kappa"] Kind::Real, "EC cost weight coefficient (default 9)";
+    NormaliseEntropy "normalise_entropy" ["normalize_entropy"] Kind::Switch, "normalise entropies (default true)";
+    Profile "profile" [] Kind::Profile, "named human: built-in or [profiles.NAME]";
+    Interaction "interaction" [] Kind::Choice(INTERACTIONS), "interaction type (default none)";
+    Budget "budget" [] Kind::Count, "interactions per run (default 0)";
+    Zeta "zeta" [] Kind::Real, "congratulation/punishment weight (default 0.1)";
+    Forget "forget" ["forget_prob"] Kind::Real, "probability the human is inattentive (default 0.1)";
+    Steps "steps" [] Kind::Count, "experiment steps (default 10000; 20000 for tidy2)";
+    Babbling "babbling" [] Kind::Count, "babbling steps (default 1000)";
+    Checkpoint "checkpoint" [] Kind::Count, "series row every this many steps (default 100)";
 }
 
 impl Key {
@@ -309,7 +124,7 @@ impl Key {
         )
     }
 
-    /// The key whose command-line flag is `flag` (as in [`crate::error::ConfigError`]).
+    /// The key whose command-line flag is `flag` (as in [`crate::params::ConfigError`]).
     pub fn from_flag(flag: &str) -> Option<Key> {
         Key::lookup(flag)
     }
@@ -368,27 +183,9 @@ pub fn apply(key: Key, value: &Value, params: &mut Params) {
     };
     match key {
         Key::Task | Key::Profile => {}
-        Key::Controller => {
-            if let Value::Choice(name) = value
-                && let Some(c) = Controller::ALL.iter().find(|c| c.name() == *name)
-            {
-                params.controller = *c;
-            }
-        }
-        Key::Selection => {
-            params.selection = if *value == Value::Choice("argmax") {
-                Selection::Argmax
-            } else {
-                Selection::Softmax
-            }
-        }
-        Key::CostModel => {
-            params.cost_model = if *value == Value::Choice("wallclock") {
-                CostModel::Wallclock
-            } else {
-                CostModel::Ops
-            }
-        }
+        Key::Controller => params.controller = choice(value, params.controller),
+        Key::Selection => params.selection = choice(value, params.selection),
+        Key::CostModel => params.cost_model = choice(value, params.cost_model),
         Key::AlphaMf => params.alpha_mf = real,
         Key::GammaMf => params.gamma_mf = real,
         Key::GammaMb => params.gamma_mb = real,
@@ -400,14 +197,7 @@ pub fn apply(key: Key, value: &Value, params: &mut Params) {
         Key::FilterAlpha => params.filter_alpha = real,
         Key::KappaCoeff => params.kappa_coeff = real,
         Key::NormaliseEntropy => params.normalise_entropy = *value == Value::Switch(true),
-        Key::Interaction => {
-            params.human.interaction = match value {
-                Value::Choice("congratulation") => Interaction::Congratulation,
-                Value::Choice("takeover") => Interaction::Takeover,
-                Value::Choice("punishment") => Interaction::Punishment,
-                _ => Interaction::None,
-            }
-        }
+        Key::Interaction => params.human.interaction = choice(value, params.human.interaction),
         Key::Budget => params.human.budget = count,
         Key::Zeta => params.human.zeta = real,
         Key::Forget => params.human.forget_prob = real,
@@ -417,15 +207,12 @@ pub fn apply(key: Key, value: &Value, params: &mut Params) {
     }
 }
 
-/// The candidate closest to `word`, if it is close enough to be a plausible typo.
-pub fn closest<'a>(word: &str, candidates: impl IntoIterator<Item = &'a str>) -> Option<&'a str> {
-    let word = normalise(word);
-    candidates
-        .into_iter()
-        .map(|c| (edit_distance(&word, &normalise(c)), c))
-        .filter(|(d, c)| *d <= (c.len() / 3).max(2))
-        .min_by_key(|(d, _)| *d)
-        .map(|(_, c)| c)
+/// The enum value a [`Value::Choice`] names (parsing only produces known names).
+fn choice<T: clap::ValueEnum>(value: &Value, current: T) -> T {
+    match value {
+        Value::Choice(name) => T::from_str(name, false).unwrap_or(current),
+        _ => current,
+    }
 }
 
 #[cfg(test)]
@@ -445,14 +232,5 @@ mod tests {
         assert_eq!(Key::lookup("forget_prob"), Some(Key::Forget));
         assert_eq!(Key::lookup("Alpha_MF"), Some(Key::AlphaMf));
         assert_eq!(Key::lookup("nope"), None);
-    }
-
-    #[test]
-    fn closest_suggests_a_typo_fix_and_nothing_for_unrelated_words() {
-        let names = KEYS.iter().map(|k| k.name);
-        assert_eq!(closest("kapa_coeff", names.clone()), Some("kappa_coeff"));
-        assert_eq!(closest("contoller", names.clone()), Some("controller"));
-        assert_eq!(closest("xylophone", names), None);
-        assert_eq!(edit_distance("kitten", "sitting"), 3);
     }
 }

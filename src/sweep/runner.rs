@@ -14,9 +14,9 @@ use super::shard::Shard;
 use super::store::{self, Lock, StoreError};
 use crate::batch::{Batch, RunConfig};
 use crate::env::Spec;
-use crate::error::ConfigError;
-use crate::experiment;
 use crate::output::{self, OutputError};
+use crate::params::ConfigError;
+use crate::pipeline;
 
 /// How to run a sweep.
 #[derive(Debug, Clone)]
@@ -29,8 +29,37 @@ pub struct Options {
     pub shard: Shard,
     /// Runs per batch, and so per part file (bounds memory; results do not depend on it).
     pub batch_size: usize,
-    /// No progress bar.
-    pub quiet: bool,
+}
+
+/// What [`execute`] tells whoever watches it, in this order: warnings and the resume notice,
+/// then the start, then progress.
+#[derive(Debug, Clone, Copy)]
+pub enum Event<'a> {
+    /// Something the user should know, such as a stale lock taken over.
+    Warning(&'a str),
+    /// Some runs of the shard were already in the folder.
+    Resuming {
+        /// Runs of the shard already done.
+        done: u64,
+        /// Runs of the shard.
+        of: u64,
+        /// Runs left to run.
+        to_run: u64,
+    },
+    /// Simulation starts: the agent-steps (babbling included) it will take.
+    Started {
+        /// Agent-steps to simulate.
+        agent_steps: u64,
+    },
+    /// Agent-steps advanced since the last event.
+    Advanced(u64),
+    /// A part was written.
+    Ran {
+        /// Runs written so far.
+        ran: u64,
+        /// Runs this process writes.
+        to_run: u64,
+    },
 }
 
 /// A sweep that could not be run.
@@ -45,6 +74,14 @@ pub enum RunError {
     /// A configuration the engine refused (validation should have caught it).
     #[error(transparent)]
     Config(#[from] ConfigError),
+}
+
+impl RunError {
+    /// Whether the user can fix it by changing the command or the folder (exit 2), rather than
+    /// a failure while running (exit 1).
+    pub fn is_usage(&self) -> bool {
+        matches!(self, RunError::Store(s) if s.is_usage())
+    }
 }
 
 /// What one process did.
@@ -102,35 +139,15 @@ impl Report {
     }
 }
 
-/// A progress bar on stderr: its length is agent-steps (so the ETA weighs long and short runs
-/// right), its message the runs done and runs per second. Hidden when `quiet` or when stderr is
-/// not a terminal.
-fn progress_bar(agent_steps: u64, quiet: bool) -> indicatif::ProgressBar {
-    if quiet {
-        return indicatif::ProgressBar::hidden();
-    }
-    let bar = indicatif::ProgressBar::new(agent_steps);
-    if let Ok(style) = indicatif::ProgressStyle::with_template(
-        "{spinner} [{elapsed_precise}] {wide_bar} {percent:>3}% {msg}, ETA {eta}",
-    ) {
-        bar.set_style(style.progress_chars("=> "));
-    }
-    bar
-}
-
 /// Key-value metadata of every part file.
 pub fn metadata(sweep: &Sweep) -> Vec<(String, String)> {
-    vec![
-        (
-            "mbmf_version".to_string(),
-            env!("CARGO_PKG_VERSION").to_string(),
-        ),
-        ("mbmf_sweep".to_string(), sweep.text.clone()),
-        ("mbmf_sweep_file".to_string(), sweep.file.clone()),
-        ("master_seed".to_string(), sweep.master_seed.to_string()),
-        ("mbmf_sweep_runs".to_string(), sweep.runs().to_string()),
-        ("mbmf_sweep_seeds".to_string(), sweep.seeds.to_string()),
-    ]
+    output::metadata([
+        ("mbmf_sweep", sweep.text.clone()),
+        ("mbmf_sweep_file", sweep.file.clone()),
+        ("master_seed", sweep.master_seed.to_string()),
+        ("mbmf_sweep_runs", sweep.runs().to_string()),
+        ("mbmf_sweep_seeds", sweep.seeds.to_string()),
+    ])
 }
 
 /// A batch being filled: the runs and, for each, its configuration and seed index.
@@ -236,13 +253,12 @@ fn plan(
     Ok(())
 }
 
-/// Runs `sweep` (the shard of `options`) into `options.out`. `warn` receives warnings, such as
-/// a stale lock taken over.
+/// Runs `sweep` (the shard of `options`) into `options.out`, telling `events` what happens.
 pub fn execute(
     sweep: &Sweep,
     specs: &[Arc<Spec>],
     options: &Options,
-    warn: &mut dyn FnMut(&str),
+    events: &mut dyn FnMut(Event<'_>),
 ) -> Result<Report, RunError> {
     let started = Instant::now();
     let out = &options.out;
@@ -253,7 +269,7 @@ pub fn execute(
     store::check_folder(out, &sweep.text, &sweep.file)?;
     let (_lock, stale) = Lock::acquire(out, shard)?;
     if let Some(w) = stale {
-        warn(&w);
+        events(Event::Warning(&w));
     }
     store::init_folder(out, &sweep.text, &sweep.file)?;
     let owned = |first_run: u64| shard.owns(first_run / seeds);
@@ -283,30 +299,20 @@ pub fn execute(
         }
     }
     let to_run = shard_runs - shard_done;
-    if !options.quiet && shard_done > 0 {
-        eprintln!(
-            "resuming {}: {shard_done} of {shard_runs} runs{} already done, {to_run} to run",
-            out.display(),
-            if shard == Shard::ALL {
-                String::new()
-            } else {
-                format!(" of shard {shard}")
-            }
-        );
+    if shard_done > 0 {
+        events(Event::Resuming {
+            done: shard_done,
+            of: shard_runs,
+            to_run,
+        });
     }
-    let bar = progress_bar(steps_to_run, options.quiet);
+    events(Event::Started {
+        agent_steps: steps_to_run,
+    });
     let metadata = metadata(sweep);
     let mut ran = 0u64;
     let mut parts_written = 0usize;
-    let set_message = |ran: u64| {
-        let secs = started.elapsed().as_secs_f64().max(1e-9);
-        bar.set_message(format!(
-            "{}/{to_run} runs, {:.1} runs/s",
-            ran,
-            ran as f64 / secs
-        ));
-    };
-    set_message(0);
+    events(Event::Ran { ran: 0, to_run });
     plan(
         sweep,
         shard,
@@ -317,11 +323,11 @@ pub fn execute(
             let first = configs.iter().map(|c| c.run_index).min().unwrap_or(0);
             let last = configs.iter().map(|c| c.run_index).max().unwrap_or(0);
             let name = store::part_name(first, last, total);
-            experiment::simulate(
+            pipeline::simulate(
                 &specs[task],
                 &configs,
                 configs.len(),
-                &bar,
+                |n| events(Event::Advanced(n)),
                 |batch: &Batch| {
                     let (runs, series) = tables(batch, &meta, sweep)?;
                     store::write_part(out, &name, &runs, &series, &metadata)?;
@@ -330,11 +336,10 @@ pub fn execute(
             )?;
             ran += configs.len() as u64;
             parts_written += 1;
-            set_message(ran);
+            events(Event::Ran { ran, to_run });
             Ok(())
         },
     )?;
-    bar.finish_and_clear();
     Ok(Report {
         out: out.clone(),
         shard,

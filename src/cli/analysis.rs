@@ -7,13 +7,13 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, anyhow};
 use clap::Args;
 
+use super::{Failure, runtime, usage};
 use crate::analysis::AnalysisError;
 use crate::analysis::compare::{self, Comparison};
 use crate::analysis::dataset::{self, Filter, Table};
 use crate::analysis::front::{DEFAULT_OBJECTIVES, Front};
 use crate::analysis::min_budget::{self, DEFAULT_ALPHA, MinBudget};
 use crate::analysis::pareto::{Direction, Objective};
-use crate::cli::{Failure, runtime, usage};
 use crate::plot::{self, ScatterChart};
 
 /// `mbmf pareto`.
@@ -103,16 +103,7 @@ fn write_table(table: &Table, folder: &Path, name: &str) -> Result<PathBuf, Fail
     let batch = table
         .to_record_batch()
         .map_err(|e| runtime(anyhow!("internal error building {name}: {e}")))?;
-    let metadata = vec![
-        (
-            "mbmf_version".to_owned(),
-            env!("CARGO_PKG_VERSION").to_owned(),
-        ),
-        (
-            "mbmf_command".to_owned(),
-            std::env::args().collect::<Vec<_>>().join(" "),
-        ),
-    ];
+    let metadata = crate::output::metadata([("mbmf_command", crate::output::command_line())]);
     crate::output::write_parquet(&folder.join(name), &batch, metadata).map_err(runtime)
 }
 
@@ -135,11 +126,11 @@ pub fn pareto(args: &ParetoArgs) -> Result<(), Failure> {
         match front_chart(&front) {
             Some(chart) => written
                 .extend(plot::scatter_chart(&chart, &folder.join("pareto")).map_err(runtime)?),
-            None => println!("no figure: it needs two objectives with finite means"),
+            None => outln!("no figure: it needs two objectives with finite means"),
         }
     }
     let shown: Vec<String> = written.iter().map(|p| p.display().to_string()).collect();
-    println!("wrote {}", shown.join(", "));
+    outln!("wrote {}", shown.join(", "));
     Ok(())
 }
 
@@ -147,7 +138,7 @@ fn print_front(front: &Front, runs: usize) {
     let c = &front.configs;
     let objectives: Vec<String> = front.objectives.iter().map(|o| o.to_string()).collect();
     let members = front.members();
-    println!(
+    outln!(
         "{}: {runs} runs in {} configurations; {} on the Pareto front of {}",
         c.source,
         c.len(),
@@ -156,7 +147,7 @@ fn print_front(front: &Front, runs: usize) {
     );
     let unranked = front.rank.iter().filter(|r| r.is_none()).count();
     if unranked > 0 {
-        println!(
+        outln!(
             "({unranked} configurations lack a mean of some objective and are left out of the ranking)"
         );
     }
@@ -185,13 +176,13 @@ fn print_front(front: &Front, runs: usize) {
     }
     let left = c.varying.len();
     let last = headers.len() - 1;
-    print!(
+    out!(
         "{}",
         render_aligned(&headers, &rows, |i| i < left || i == last)
     );
-    println!("(means over runs ± half-width of the 95% Student-t confidence interval)");
+    outln!("(means over runs ± half-width of the 95% Student-t confidence interval)");
     if let Some(k) = front.knee {
-        println!(
+        outln!(
             "knee (suggested): {}: the front configuration nearest the ideal point once each \
              objective is rescaled to [0, 1] over the front (pareto::knee_point)",
             c.label(k)
@@ -259,7 +250,7 @@ pub fn stats(args: &StatsArgs) -> Result<(), Failure> {
 }
 
 fn print_comparison(c: &Comparison) {
-    println!(
+    outln!(
         "{}: {} by {} (two-sided Wilcoxon-Mann-Whitney tests, Holm-corrected over {} pair{})",
         c.source,
         c.metric,
@@ -288,8 +279,8 @@ fn print_comparison(c: &Comparison) {
             ]
         })
         .collect();
-    print!("{}", render(&headers, &rows, 1));
-    println!();
+    out!("{}", render(&headers, &rows, 1));
+    outln!();
     let headers: Vec<String> = ["a", "b", "U", "p", "p_holm", "", "effect", "method"]
         .iter()
         .map(|s| s.to_string())
@@ -314,8 +305,8 @@ fn print_comparison(c: &Comparison) {
             ]
         })
         .collect();
-    print!("{}", render_aligned(&headers, &rows, |i| i < 2 || i == 5));
-    println!(
+    out!("{}", render_aligned(&headers, &rows, |i| i < 2 || i == 5));
+    outln!(
         "U = Mann-Whitney U of a; effect = rank-biserial correlation P(a > b) - P(a < b), in \
          [-1, 1]; * p_holm < 0.05, ** < 0.01, *** < 0.001; exact = exact null distribution \
          (small samples, no ties), normal = normal approximation with tie and continuity \
@@ -323,7 +314,7 @@ fn print_comparison(c: &Comparison) {
     );
     if !c.empty.is_empty() {
         let values: Vec<String> = c.empty.iter().map(|v| v.to_string()).collect();
-        println!(
+        outln!(
             "left out ({} has no value): {} = {}",
             c.metric,
             c.by,
@@ -331,7 +322,7 @@ fn print_comparison(c: &Comparison) {
         );
     }
     if !c.mixed.is_empty() {
-        println!(
+        outln!(
             "note: within groups these parameters also vary: {}; add --where COLUMN=VALUE to \
              compare like with like",
             c.mixed.join(", ")
@@ -350,15 +341,17 @@ pub fn min_budget(args: &MinBudgetArgs) -> Result<(), Failure> {
         .clone()
         .unwrap_or_else(|| dataset::output_folder(&args.dir));
     let path = write_table(&result.to_table(), &folder, "min_budget.parquet")?;
-    println!("wrote {}", path.display());
+    outln!("wrote {}", path.display());
     Ok(())
 }
 
 fn print_min_budget(r: &MinBudget, levels: bool) {
-    println!(
+    outln!(
         "{}: minimal budget of {} (SPEC 9: the smallest budget that no larger budget beats with \
          a higher mean and a one-sided Mann-Whitney p < {}; no multiple-comparison correction)",
-        r.source, r.metric, r.alpha
+        r.source,
+        r.metric,
+        r.alpha
     );
     let mut headers: Vec<String> = r.shown.clone();
     for h in [
@@ -423,27 +416,27 @@ fn print_min_budget(r: &MinBudget, levels: bool) {
         }
     }
     let (keys, last) = (r.shown.len(), headers.len() - 1);
-    print!(
+    out!(
         "{}",
         render_aligned(&headers, &rows, |i| i < keys || i == last)
     );
-    println!(
+    outln!(
         "budget 0 = runs with budget 0 or interaction none, shared by every interaction type; \
          p = one-sided test that the larger budget's values are greater"
     );
     for n in notes {
-        println!("{n}");
+        outln!("{n}");
     }
     if r.baseline_only > 0 {
-        println!(
+        outln!(
             "({} parameter combinations have only budget-0 runs and are not shown)",
             r.baseline_only
         );
     }
     if levels {
         for (g, group) in r.groups.iter().enumerate() {
-            println!();
-            println!("{}", row_label(r, g).join(" "));
+            outln!();
+            outln!("{}", row_label(r, g).join(" "));
             let headers: Vec<String> = ["budget", "n", "mean", "sd", "qualifies", "beaten by"]
                 .iter()
                 .map(|s| s.to_string())
@@ -468,7 +461,7 @@ fn print_min_budget(r: &MinBudget, levels: bool) {
                     ]
                 })
                 .collect();
-            print!("{}", render_aligned(&headers, &rows, |i| i == 5));
+            out!("{}", render_aligned(&headers, &rows, |i| i == 5));
         }
     }
 }

@@ -1,5 +1,7 @@
-//! Helpers shared by the sweep tests: running the binary, and reading a dataset back as sorted
-//! rows so two datasets can be compared regardless of how runs were split into parts.
+//! Helpers shared by the integration tests: running the binary, reading a dataset back as
+//! sorted rows (so two datasets compare regardless of how runs were split into parts), the
+//! authors' data, and simulating configurations on a chosen number of threads. Each test file
+//! uses some of them.
 #![allow(dead_code)]
 
 use std::collections::BTreeMap;
@@ -9,6 +11,12 @@ use std::process::{Command, Output};
 
 use arrow::util::display::array_value_to_string;
 use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
+use std::sync::Arc;
+
+use mbmf::batch::{Batch, RunConfig};
+use mbmf::env::{self, Spec};
+use mbmf::params::ConfigError;
+use mbmf::pipeline;
 
 /// Columns that legitimately differ between two runs of the same sweep.
 pub const NONDETERMINISTIC: &[&str] = &["wall_time_s"];
@@ -209,3 +217,61 @@ controller = ["mf", "ec"]
 interaction = ["none", "takeover"]
 budget = [0, 15]
 "#;
+
+/// The authors' navigation world, outside the repository (`../shared/data`).
+pub const NAVWORLD: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/../shared/data/navworld/realisticNavWorld.json"
+);
+
+/// The task name of the authors' navigation world, or `None` (saying so) when its files are
+/// absent. Under `CI=true` absent data fails the test instead: CI must run every test.
+pub fn navworld_task() -> Option<String> {
+    if Path::new(NAVWORLD).exists() {
+        return Some(format!("json:{NAVWORLD}"));
+    }
+    assert!(
+        !std::env::var("CI").is_ok_and(|v| v == "true"),
+        "CI=true but {NAVWORLD} is absent: CI must provide the authors' data"
+    );
+    println!("skipped: {NAVWORLD} is absent (the authors' data is not in the repository)");
+    None
+}
+
+/// The authors' navigation world, loaded, or `None` as [`navworld_task`] says.
+pub fn navworld() -> Option<Arc<Spec>> {
+    navworld_task().map(|task| Arc::new(env::load(&task).expect("navworld loads")))
+}
+
+/// Simulates `configs` in batches of `batch_size` on a pool of `threads` threads, turning each
+/// run of each finished batch into a `T` with `each`.
+pub fn simulate<T>(
+    spec: &Arc<Spec>,
+    configs: &[RunConfig],
+    threads: usize,
+    batch_size: usize,
+    each: impl Fn(&Batch, usize) -> T + Sync,
+) -> Vec<T>
+where
+    T: Send,
+{
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .expect("a thread pool");
+    pool.install(|| {
+        let mut out = Vec::new();
+        pipeline::simulate(
+            spec,
+            configs,
+            batch_size,
+            |_| {},
+            |batch: &Batch| {
+                out.extend((0..batch.len()).map(|r| each(batch, r)));
+                Ok::<(), ConfigError>(())
+            },
+        )
+        .expect("valid configurations");
+        out
+    })
+}

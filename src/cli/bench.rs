@@ -1,0 +1,167 @@
+//! `mbmf bench`: the headline speed figures of this machine, and (`--growth`) the grid:N growth
+//! study, printed as they are measured.
+
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use anyhow::anyhow;
+use clap::Args;
+
+use super::{Failure, runtime, usage};
+use crate::bench::{
+    GROWTH_CONTROLLERS, GROWTH_RUNS, GROWTH_STEPS, GrowthPoint, growth, growth_sizes,
+    memory_per_instance, steady_rate, write_growth,
+};
+use crate::env;
+use crate::params::{Controller, Params};
+
+/// `mbmf bench`.
+#[derive(Debug, Clone, Args)]
+pub struct BenchArgs {
+    /// Also measure growth on grid:N worlds (100 to --growth-max states, all four controllers):
+    /// writes growth.csv and log-log charts (growth_time, growth_memory) into --out. A few
+    /// minutes more.
+    #[arg(long)]
+    pub growth: bool,
+    /// Largest grid of the growth study, in states.
+    #[arg(long, default_value_t = 10_000)]
+    pub growth_max: usize,
+    /// Folder for the growth study's CSV and charts.
+    #[arg(long, default_value = "out/bench")]
+    pub out: PathBuf,
+}
+
+/// Runs `mbmf bench`.
+pub fn command(args: &BenchArgs) -> Result<(), Failure> {
+    if args.growth && !(100..=env::grid::MAX_STATES).contains(&args.growth_max) {
+        return Err(usage(anyhow!(
+            "--growth-max must be between 100 and {} states, not {}",
+            env::grid::MAX_STATES,
+            args.growth_max
+        )));
+    }
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    outln!(
+        "mbmf bench: {} thread(s) available; medians of timed windows, setup not timed",
+        cores
+    );
+    headline(cores).map_err(runtime)?;
+    if args.growth {
+        let sizes = growth_sizes(args.growth_max);
+        outln!();
+        outln!(
+            "growth on grid:N, whole runs ({GROWTH_STEPS} steps), {GROWTH_RUNS} runs, one thread:"
+        );
+        outln!(
+            "  {:>7} {:<10} {:>12} {:>12} {:>10} {:>10} {:>12}",
+            "states",
+            "controller",
+            "us/step",
+            "KiB/run",
+            "reward",
+            "known",
+            "sweeps/VI"
+        );
+        let points = growth(&sizes, &GROWTH_CONTROLLERS, growth_row).map_err(runtime)?;
+        outln!();
+        for path in write_growth(&points, &args.out).map_err(runtime)? {
+            outln!("wrote {}", path.display());
+        }
+    }
+    Ok(())
+}
+
+/// Paper defaults for `controller` on tidy1.
+fn tidy1_params(controller: Controller) -> Params {
+    Params {
+        controller,
+        ..Params::default()
+    }
+}
+
+fn headline(cores: usize) -> anyhow::Result<()> {
+    let spec = Arc::new(env::load("tidy1")?);
+    outln!();
+    outln!("tidy1, steady state (the last 1,000 of 11,000 steps), one thread:");
+    outln!("  {:<10} {:>6} {:>16}", "controller", "runs", "steps/s");
+    for (controller, runs) in [
+        (Controller::Mf, 1024),
+        (Controller::Mb, 1024),
+        (Controller::Rnd, 1024),
+        (Controller::Ec, 1024),
+    ] {
+        let rate = steady_rate(&spec, tidy1_params(controller), runs, &[1], 1000, 9)?[0];
+        outln!(
+            "  {:<10} {:>6} {:>16}",
+            controller.name(),
+            runs,
+            thousands(rate)
+        );
+    }
+
+    let mut threads = vec![1, 2];
+    if cores > 2 {
+        threads.push(cores);
+    }
+    let runs = 2048;
+    outln!();
+    outln!("ec on tidy1, steady state, {runs} runs, by thread count:");
+    let rates = steady_rate(&spec, tidy1_params(Controller::Ec), runs, &threads, 1000, 9)?;
+    for (t, rate) in threads.iter().zip(&rates) {
+        outln!(
+            "  {t:>3} thread(s) {:>16} steps/s  ({:.2}x one thread)",
+            thousands(*rate),
+            rate / rates[0]
+        );
+    }
+
+    outln!();
+    let memory = memory_per_instance(&spec, 10_000)?;
+    outln!(
+        "memory: 10,000 tidy1 runs hold {:.1} KiB of state each{}",
+        memory.layout_bytes as f64 / 1024.0,
+        match memory.rss_bytes {
+            Some(rss) => format!("; resident memory grew by {:.1} KiB per run", rss / 1024.0),
+            None => String::new(),
+        }
+    );
+    Ok(())
+}
+
+fn growth_row(point: &GrowthPoint) {
+    outln!(
+        "  {:>7} {:<10} {:>12.3} {:>12.1} {:>10.1} {:>10.0} {:>12.2}",
+        point.states,
+        point.controller.name(),
+        point.seconds_per_step * 1e6,
+        point.bytes_per_run as f64 / 1024.0,
+        point.reward,
+        point.known_states,
+        point.sweeps_per_call
+    );
+}
+
+/// `1234567.8` as `1,234,568`.
+fn thousands(x: f64) -> String {
+    let digits = format!("{:.0}", x.max(0.0));
+    let mut out = String::new();
+    for (i, c) in digits.chars().enumerate() {
+        if i > 0 && (digits.len() - i).is_multiple_of(3) {
+            out.push(',');
+        }
+        out.push(c);
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn thousands_groups_digits_by_three() {
+        assert_eq!(thousands(0.0), "0");
+        assert_eq!(thousands(999.4), "999");
+        assert_eq!(thousands(1_234_567.8), "1,234,568");
+    }
+}

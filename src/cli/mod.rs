@@ -1,0 +1,152 @@
+//! The `mbmf` command line: every verb, everything printed for a person, and the exit codes.
+//! Library modules return data (reports, estimates, tables) and typed errors; this layer turns
+//! them into text, progress bars and [`Failure`]s.
+
+use anyhow::anyhow;
+use clap::{Parser, Subcommand};
+
+/// Writes formatted text to standard output; see [`write_stdout`].
+macro_rules! out {
+    ($($arg:tt)*) => { $crate::cli::write_stdout(format_args!($($arg)*)) };
+}
+
+/// Writes a line to standard output; see [`write_stdout`].
+macro_rules! outln {
+    () => { $crate::cli::write_stdout(format_args!("\n")) };
+    ($($arg:tt)*) => { $crate::cli::write_stdout(format_args!("{}\n", format_args!($($arg)*))) };
+}
+
+pub mod analysis;
+pub mod args;
+pub mod bench;
+pub mod env;
+pub mod progress;
+pub mod reproduce;
+pub mod run;
+pub mod sweep;
+
+use args::threads_count;
+
+/// Exit code for bad usage: unknown flags, values out of range, unreadable inputs.
+pub const EXIT_USAGE: i32 = 2;
+/// Exit code for failures while running: a write that failed, a full disk.
+pub const EXIT_RUNTIME: i32 = 1;
+
+/// An error with the exit code it should produce.
+#[derive(Debug)]
+pub struct Failure {
+    /// 2 for usage errors, 1 for runtime failures.
+    pub code: i32,
+    /// What went wrong, with its causes.
+    pub error: anyhow::Error,
+}
+
+/// Marks an error as a usage error (exit code 2).
+pub fn usage(error: impl Into<anyhow::Error>) -> Failure {
+    Failure {
+        code: EXIT_USAGE,
+        error: error.into(),
+    }
+}
+
+/// Marks an error as a runtime failure (exit code 1).
+pub fn runtime(error: impl Into<anyhow::Error>) -> Failure {
+    Failure {
+        code: EXIT_RUNTIME,
+        error: error.into(),
+    }
+}
+
+/// Writes to standard output. A closed pipe (`mbmf ... | head`) ends the process quietly with
+/// success: the reader has what it wanted. Any other failure to write ends it with a message.
+pub fn write_stdout(text: std::fmt::Arguments<'_>) {
+    use std::io::Write as _;
+    let mut stdout = std::io::stdout().lock();
+    if let Err(e) = stdout.write_fmt(text).and_then(|()| stdout.flush()) {
+        if e.kind() == std::io::ErrorKind::BrokenPipe {
+            std::process::exit(0);
+        }
+        let _ = writeln!(
+            std::io::stderr(),
+            "error: cannot write to standard output: {e}"
+        );
+        std::process::exit(EXIT_RUNTIME);
+    }
+}
+
+/// mbmf: batch simulation of MF/MB expert coordination under variable human feedback.
+#[derive(Debug, Parser)]
+#[command(
+    name = "mbmf",
+    version,
+    about,
+    long_about = None,
+    help_expected = true,
+    after_help = "Exit codes: 0 success, 1 runtime failure (e.g. a write that failed), 2 usage error (a bad flag, value, file or combination)."
+)]
+pub struct Cli {
+    /// Worker threads, 1 to 4096 (default: RAYON_NUM_THREADS, else every core). Results do not
+    /// depend on it.
+    #[arg(long, global = true, value_parser = threads_count, allow_negative_numbers = true)]
+    pub threads: Option<usize>,
+    /// What to do.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// The verbs.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Run one configuration (or a few controllers) and write runs.parquet and series.parquet.
+    ///
+    /// With no flags: task 1, controllers mf, mb, rnd and ec, 20 runs each, 10,000 steps.
+    ///
+    /// Example: mbmf run --task tidy1 --controller ec --interaction takeover --budget 50 --out out/ec
+    Run(Box<run::RunArgs>),
+    /// Run a sweep file (grid of parameters x seeds) into a Parquet dataset.
+    ///
+    /// Example: mbmf sweep sweeps/kappa.toml --out out/kappa
+    Sweep(Box<sweep::SweepArgs>),
+    /// Pareto front over configurations of a dataset (reward, cost, learning quality).
+    Pareto(analysis::ParetoArgs),
+    /// Pairwise Wilcoxon-Mann-Whitney tests of a metric between groups of runs.
+    Stats(analysis::StatsArgs),
+    /// Smallest interaction budget reaching the best accumulation rate, per controller.
+    MinBudget(analysis::MinBudgetArgs),
+    /// Run the paper's experiments and write its figures and a claim-by-claim report.
+    Reproduce(reproduce::ReproduceArgs),
+    /// Print the headline speed figures of this machine in about a minute.
+    Bench(bench::BenchArgs),
+    /// Inspect or export an environment.
+    #[command(subcommand)]
+    Env(env::EnvCommand),
+}
+
+/// Parses the arguments and runs the verb. Help and version requests print and exit 0; argument
+/// errors print clap's message (with its suggestion for a typo) and exit 2.
+pub fn main_with_args(args: impl IntoIterator<Item = std::ffi::OsString>) -> Result<(), Failure> {
+    let cli = match Cli::try_parse_from(args) {
+        Ok(cli) => cli,
+        Err(e) => {
+            let code = if e.use_stderr() { EXIT_USAGE } else { 0 };
+            let _ = e.print();
+            std::process::exit(code);
+        }
+    };
+    if let Some(n) = cli.threads {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build_global()
+            .map_err(|e| runtime(anyhow!("cannot start {n} worker threads: {e}")))?;
+    }
+    match &cli.command {
+        Command::Run(args) => run::run(args),
+        Command::Sweep(args) => sweep::command(args),
+        Command::Pareto(args) => analysis::pareto(args),
+        Command::Stats(args) => analysis::stats(args),
+        Command::MinBudget(args) => analysis::min_budget(args),
+        Command::Reproduce(args) => reproduce::command(args),
+        Command::Bench(args) => bench::command(args),
+        Command::Env(cmd) => env::command(cmd),
+    }
+}

@@ -1,0 +1,156 @@
+//! `mbmf sweep`: a sweep file run into a Parquet dataset, with a progress bar and a summary line,
+//! or (`--dry-run`) its plan and an estimate of its time.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use anyhow::anyhow;
+use clap::Args;
+
+use super::{Failure, progress, runtime, usage};
+use crate::sweep::{Event, Options, Shard, Sweep, describe_plan, execute, runner, shard};
+
+const EXAMPLES: &str = "\
+Examples:
+  mbmf sweep sweeps/kappa.toml --dry-run            # configurations, runs, estimated time
+  mbmf sweep sweeps/kappa.toml --out out/kappa      # run it
+  mbmf sweep sweeps/kappa.toml --out out/kappa --resume     # after a crash: run what is missing
+  mbmf sweep sweeps/kappa.toml --out out/kappa --shard 2/8  # one of 8 independent processes
+  sbatch --export=ALL,SWEEP=sweeps/kappa.toml,OUT=out/kappa sweeps/slurm/sweep-array.sbatch
+
+Read the result with polars: pl.scan_parquet(\"out/kappa/runs/*.parquet\").";
+
+/// `mbmf sweep`.
+#[derive(Debug, Clone, Args)]
+#[command(after_long_help = EXAMPLES)]
+pub struct SweepArgs {
+    /// The sweep file (TOML), e.g. sweeps/kappa.toml (format: sweeps/README.md).
+    pub file: PathBuf,
+    /// Dataset folder: runs/ and series/ Parquet parts plus a copy of the sweep file
+    /// [default: out/<FILE stem>].
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Print the number of configurations and runs and an estimate of the time; run nothing.
+    #[arg(long)]
+    pub dry_run: bool,
+    /// Run only the runs missing from --out (after a crash, a kill, or another shard split).
+    #[arg(long)]
+    pub resume: bool,
+    /// Run shard I of N: the configurations whose index is I modulo N, with all their seeds.
+    #[arg(long, value_name = "I/N", conflicts_with = "shard_from_env")]
+    pub shard: Option<Shard>,
+    /// Take the shard from a Slurm job array (SLURM_ARRAY_TASK_ID, SLURM_ARRAY_TASK_COUNT) or a
+    /// Kubernetes indexed Job (JOB_COMPLETION_INDEX with --shard-count or MBMF_SHARD_COUNT).
+    #[arg(long)]
+    pub shard_from_env: bool,
+    /// Number of shards for JOB_COMPLETION_INDEX [default: MBMF_SHARD_COUNT].
+    #[arg(long, value_name = "N", requires = "shard_from_env")]
+    pub shard_count: Option<u32>,
+    /// Runs simulated at once and written per part file (bounds memory); results do not depend
+    /// on it.
+    #[arg(long, default_value_t = 256)]
+    pub batch_size: usize,
+    /// No progress bar and no summary line (for batch jobs); warnings and errors still print.
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+impl SweepArgs {
+    /// The dataset folder: `--out`, or `out/<file stem>`.
+    pub fn out_dir(&self) -> PathBuf {
+        self.out.clone().unwrap_or_else(|| {
+            let stem = self
+                .file
+                .file_stem()
+                .map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_else(|| "sweep".into());
+            PathBuf::from("out").join(stem)
+        })
+    }
+
+    /// The shard this process runs.
+    pub fn shard(&self) -> Result<Shard, shard::ShardError> {
+        if self.shard_from_env {
+            Shard::from_env(|name| std::env::var(name).ok(), self.shard_count)
+        } else {
+            Ok(self.shard.unwrap_or(Shard::ALL))
+        }
+    }
+}
+
+/// Runs `mbmf sweep`.
+pub fn command(args: &SweepArgs) -> Result<(), Failure> {
+    let sweep = Sweep::load(&args.file).map_err(usage)?;
+    let shard = args.shard().map_err(usage)?;
+    if args.batch_size == 0 {
+        return Err(usage(anyhow!("--batch-size must be at least 1")));
+    }
+    let specs = sweep.load_specs().map_err(usage)?;
+    sweep.check(&specs).map_err(usage)?;
+    if args.dry_run {
+        outln!("{}", describe_plan(&sweep, shard));
+        let e = runner::estimate(&sweep, &specs, shard).map_err(usage)?;
+        let time = if e.seconds < 1.0 {
+            "under a second".to_string()
+        } else {
+            format!("about {}", runner::human_duration(e.seconds))
+        };
+        outln!(
+            "  agent-steps: {} (babbling included)\nestimated time: {time} with {} thread(s) \
+             (timed on {} sample run(s) in {:.1} s)",
+            e.agent_steps,
+            e.threads,
+            e.samples,
+            e.calibration_seconds
+        );
+        return Ok(());
+    }
+    let options = Options {
+        out: args.out_dir(),
+        resume: args.resume,
+        shard,
+        batch_size: args.batch_size,
+    };
+    let mut bar = None;
+    let started = Instant::now();
+    let mut on_event = |event: Event| match event {
+        Event::Warning(w) => eprintln!("warning: {w}"),
+        Event::Resuming { done, of, to_run } if !args.quiet => eprintln!(
+            "resuming {}: {done} of {of} runs{} already done, {to_run} to run",
+            options.out.display(),
+            if shard == Shard::ALL {
+                String::new()
+            } else {
+                format!(" of shard {shard}")
+            }
+        ),
+        Event::Resuming { .. } => {}
+        Event::Started { agent_steps } => {
+            bar = Some(progress::bar(agent_steps, args.quiet, true));
+        }
+        Event::Advanced(steps) => {
+            if let Some(b) = &bar {
+                b.inc(steps);
+            }
+        }
+        Event::Ran { ran, to_run } => {
+            let secs = started.elapsed().as_secs_f64().max(1e-9);
+            if let Some(b) = &bar {
+                b.set_message(format!(
+                    "{ran}/{to_run} runs, {:.1} runs/s",
+                    ran as f64 / secs
+                ));
+            }
+        }
+    };
+    let report = execute(&sweep, &specs, &options, &mut on_event)
+        .map_err(|e| if e.is_usage() { usage(e) } else { runtime(e) });
+    if let Some(b) = bar {
+        b.finish_and_clear();
+    }
+    let report = report?;
+    if !args.quiet {
+        outln!("{}", report.line());
+    }
+    Ok(())
+}
