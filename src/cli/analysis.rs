@@ -16,23 +16,31 @@ use crate::analysis::min_budget::{self, DEFAULT_ALPHA, MinBudget};
 use crate::analysis::pareto::{Direction, Objective};
 use crate::plot::{self, ScatterChart};
 
+/// The dataset an analysis reads, and the runs it keeps.
+#[derive(Debug, Clone, Args)]
+pub struct Dataset {
+    /// Dataset: a folder written by mbmf run (runs.parquet) or mbmf sweep (runs/part-*.parquet),
+    /// or one .parquet file.
+    pub dir: PathBuf,
+    /// Keep only runs with COLUMN=VALUE (repeatable; every filter must hold).
+    #[arg(long = "where", value_name = "COLUMN=VALUE", value_parser = Filter::parse)]
+    pub filters: Vec<Filter>,
+}
+
 /// `mbmf pareto`.
 #[derive(Debug, Clone, Args)]
 #[command(
     after_help = "Example: mbmf pareto out/kappa --objectives total_reward:max,cost_total:min"
 )]
 pub struct ParetoArgs {
-    /// Dataset: a folder written by mbmf run (runs.parquet) or mbmf sweep (runs/part-*.parquet),
-    /// or one .parquet file.
-    pub dir: PathBuf,
+    /// The dataset and the runs kept.
+    #[command(flatten)]
+    pub data: Dataset,
     /// Objectives as NAME:max or NAME:min, comma-separated; any numeric column of the runs.
     /// Default: the paper's reward, inference cost and learning quality (entropy of the
     /// controlling expert, lower is better).
     #[arg(long, value_delimiter = ',', default_value = DEFAULT_OBJECTIVES, value_parser = Objective::parse)]
     pub objectives: Vec<Objective>,
-    /// Keep only runs with COLUMN=VALUE (repeatable; every filter must hold).
-    #[arg(long = "where", value_name = "COLUMN=VALUE", value_parser = Filter::parse)]
-    pub filters: Vec<Filter>,
     /// Folder for pareto.parquet, pareto.svg and pareto.png (default: the dataset's folder).
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -47,27 +55,24 @@ pub struct ParetoArgs {
     after_help = "Example: mbmf stats out/run --by controller --metric total_reward --where interaction=none"
 )]
 pub struct StatsArgs {
-    /// Dataset: a folder written by mbmf run (runs.parquet) or mbmf sweep (runs/part-*.parquet),
-    /// or one .parquet file.
-    pub dir: PathBuf,
+    /// The dataset and the runs kept.
+    #[command(flatten)]
+    pub data: Dataset,
     /// Column whose values define the groups (e.g. controller, budget, kappa_coeff).
     #[arg(long)]
     pub by: String,
     /// Numeric column to compare (e.g. total_reward, cost_total, mean_entropy_chosen).
     #[arg(long, default_value = "total_reward")]
     pub metric: String,
-    /// Keep only runs with COLUMN=VALUE (repeatable; every filter must hold).
-    #[arg(long = "where", value_name = "COLUMN=VALUE", value_parser = Filter::parse)]
-    pub filters: Vec<Filter>,
 }
 
 /// `mbmf min-budget`.
 #[derive(Debug, Clone, Args)]
 #[command(after_help = "Example: mbmf min-budget out/budgets --metric reward_last10")]
 pub struct MinBudgetArgs {
-    /// Dataset: a folder written by mbmf run (runs.parquet) or mbmf sweep (runs/part-*.parquet),
-    /// or one .parquet file.
-    pub dir: PathBuf,
+    /// The dataset and the runs kept.
+    #[command(flatten)]
+    pub data: Dataset,
     /// Numeric column to compare between budgets: total_reward (default) or reward_last10 (the
     /// accumulation rate at the end of the run).
     #[arg(long, default_value = "total_reward")]
@@ -75,9 +80,6 @@ pub struct MinBudgetArgs {
     /// Significance level of the one-sided tests (SPEC 9: 0.05).
     #[arg(long, default_value_t = DEFAULT_ALPHA)]
     pub alpha: f64,
-    /// Keep only runs with COLUMN=VALUE (repeatable; every filter must hold).
-    #[arg(long = "where", value_name = "COLUMN=VALUE", value_parser = Filter::parse)]
-    pub filters: Vec<Filter>,
     /// Folder for min_budget.parquet (default: the dataset's folder).
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -113,13 +115,13 @@ fn analysis_failure(e: AnalysisError) -> Failure {
 
 /// Runs `mbmf pareto`.
 pub fn pareto(args: &ParetoArgs) -> Result<(), Failure> {
-    let table = load(&args.dir, &args.filters)?;
+    let table = load(&args.data.dir, &args.data.filters)?;
     let front = Front::compute(&table, &args.objectives).map_err(analysis_failure)?;
     print_front(&front, table.len());
     let folder = args
         .out
         .clone()
-        .unwrap_or_else(|| dataset::output_folder(&args.dir));
+        .unwrap_or_else(|| dataset::output_folder(&args.data.dir));
     let path = write_table(&front.to_table(), &folder, "pareto.parquet")?;
     let mut written = vec![path];
     if !args.no_plot {
@@ -243,7 +245,7 @@ fn front_chart(front: &Front) -> Option<ScatterChart> {
 
 /// Runs `mbmf stats`.
 pub fn stats(args: &StatsArgs) -> Result<(), Failure> {
-    let table = load(&args.dir, &args.filters)?;
+    let table = load(&args.data.dir, &args.data.filters)?;
     let comparison = compare::compare(&table, &args.by, &args.metric).map_err(analysis_failure)?;
     print_comparison(&comparison);
     Ok(())
@@ -332,14 +334,14 @@ fn print_comparison(c: &Comparison) {
 
 /// Runs `mbmf min-budget`.
 pub fn min_budget(args: &MinBudgetArgs) -> Result<(), Failure> {
-    let table = load(&args.dir, &args.filters)?;
+    let table = load(&args.data.dir, &args.data.filters)?;
     let result =
         min_budget::min_budget(&table, &args.metric, args.alpha).map_err(analysis_failure)?;
     print_min_budget(&result, args.levels);
     let folder = args
         .out
         .clone()
-        .unwrap_or_else(|| dataset::output_folder(&args.dir));
+        .unwrap_or_else(|| dataset::output_folder(&args.data.dir));
     let path = write_table(&result.to_table(), &folder, "min_budget.parquet")?;
     outln!("wrote {}", path.display());
     Ok(())
