@@ -14,6 +14,7 @@ pub mod env;
 pub mod error;
 pub mod experiment;
 pub mod expert;
+pub mod human;
 pub mod meta;
 pub mod output;
 pub mod params;

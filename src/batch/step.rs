@@ -9,10 +9,11 @@
 use std::time::Instant;
 
 use super::{Checkpoint, RunView, initial_state, uniform};
-use crate::env::{NO_TAKEOVER, Spec};
+use crate::env::Spec;
 use crate::expert::{draw, ema, ema_into, mf, softmax_biased};
+use crate::human;
 use crate::meta;
-use crate::params::{CostModel, Interaction, Params};
+use crate::params::{CostModel, Params};
 
 /// Advances one run by one step: a babbling step while `cursor.t < babbling`, then an experiment
 /// step. At the end of babbling the environment is reset to an initial state (not a step).
@@ -60,22 +61,17 @@ fn act(
     let human_active = !babbling && run.cursor.budget_left > 0;
 
     // 2. Takeover.
-    let mut action = None;
-    if human_active && human.interaction == Interaction::Takeover {
-        let put = spec
-            .human
-            .as_ref()
-            .map_or(NO_TAKEOVER, |h| h.takeover_action[s]);
-        if put != NO_TAKEOVER {
-            if uniform(run.rng) >= human.forget_prob {
-                action = Some(put as usize);
-                run.stats.takeovers += 1;
-                spend_budget(run, t_exp);
-            } else {
-                run.stats.forgotten += 1;
-            }
-        }
-    }
+    let tables = spec.human.as_ref();
+    let action = human::takeover(
+        human,
+        tables,
+        human_active,
+        s,
+        &mut run.cursor.budget_left,
+        run.stats,
+        t_exp,
+        run.rng,
+    );
     let a = match action {
         Some(a) => a,
         None => decide(spec, params, run, s, babbling),
@@ -97,28 +93,16 @@ fn act(
     };
 
     // 7. Feedback: G(s, a) is set by an attentive human with budget, reset otherwise (Eq. 8).
-    let mut g = 0;
-    if human_active && run.cursor.budget_left > 0 {
-        let tables = spec.human.as_ref();
-        let opportunity = match human.interaction {
-            Interaction::Congratulation => tables.is_some_and(|h| h.relevant[sa]),
-            Interaction::Punishment => tables.is_some_and(|h| h.error[sa]),
-            _ => false,
-        };
-        if opportunity {
-            if uniform(run.rng) >= human.forget_prob {
-                g = 1;
-                if human.interaction == Interaction::Congratulation {
-                    run.stats.congratulations += 1;
-                } else {
-                    run.stats.punishments += 1;
-                }
-                spend_budget(run, t_exp);
-            } else {
-                run.stats.forgotten += 1;
-            }
-        }
-    }
+    let g = human::feedback(
+        human,
+        tables,
+        human_active,
+        sa,
+        &mut run.cursor.budget_left,
+        run.stats,
+        t_exp,
+        run.rng,
+    );
     run.bonus[sa] = g;
 
     // 8. Learning, by every expert the controller runs.
@@ -216,11 +200,7 @@ fn decide(spec: &Spec, params: &Params, run: &mut RunView<'_>, s: usize, babblin
     }
 
     // 5. Decision: each expert the controller runs computes its (biased) softmax and folds it in.
-    let bonus = match params.human.interaction {
-        Interaction::Congratulation => params.human.zeta,
-        Interaction::Punishment => -params.human.zeta,
-        _ => 0.0,
-    };
+    let bonus = human::bonus_weight(&params.human);
     let (p_mf, p_mb) = run.scratch.split_at_mut(n_a);
     let g = &run.bonus[row.clone()];
     if controller.runs_mf() {
@@ -247,13 +227,6 @@ fn decide(spec: &Spec, params: &Params, run: &mut RunView<'_>, s: usize, babblin
         run.cursor.window_decisions += 1;
     }
     a
-}
-
-fn spend_budget(run: &mut RunView<'_>, t_exp: u32) {
-    run.cursor.budget_left -= 1;
-    if run.cursor.budget_left == 0 {
-        run.stats.budget_exhausted_step = t_exp;
-    }
 }
 
 /// Writes a checkpoint row every `checkpoint` experiment steps and at the last step.
