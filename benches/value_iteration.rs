@@ -89,9 +89,9 @@ fn value_iteration(c: &mut Criterion) {
             let call = |model: &mut OwnedModel, q: &mut Vec<f64>| {
                 let mut view = model.view();
                 if warm {
-                    view.value_iteration_cached(&spec, q, p.gamma_mb, p.vi_epsilon, p.vi_max_sweeps)
+                    view.value_iteration_cached(q, p.gamma_mb, p.vi_epsilon, p.vi_max_sweeps)
                 } else {
-                    view.value_iteration(&spec, q, p.gamma_mb, p.vi_epsilon, p.vi_max_sweeps)
+                    view.value_iteration(q, p.gamma_mb, p.vi_epsilon, p.vi_max_sweeps)
                 }
             };
             // One probe call gives the work per call, so rates read as terms per second.

@@ -16,7 +16,7 @@ use rayon::prelude::*;
 
 use crate::env::{Spec, StateId};
 use crate::error::ConfigError;
-use crate::expert::mb::{Model, Predecessors, dirty_words};
+use crate::expert::mb::{Model, Observable};
 use crate::params::{Interaction, Params};
 
 pub use step::step;
@@ -173,11 +173,12 @@ pub struct Batch {
     ring_pos: Array2<u16>,
     outcome_count: Array2<u16>,
     outcome_reward: Array2<f64>,
+    outcome_terminal: Array2<bool>,
     known: Array2<bool>,
     vi_best: Array2<f64>,
     vi_dirty: Array2<u64>,
     vi_terms: Vec<u64>,
-    preds: Arc<Predecessors>,
+    obs: Arc<Observable>,
     scratch: Array2<f64>,
     rngs: Vec<Xoshiro256PlusPlus>,
     cursors: Vec<Cursor>,
@@ -233,7 +234,9 @@ impl Batch {
             .map(|c| c.params.window_n as usize)
             .max()
             .unwrap_or(1);
-        let n_outcomes = spec.outcome_state.len();
+        // The MB model's index space: the outcomes a run can observe.
+        let obs = Arc::new(Observable::of(&spec));
+        let n_outcomes = obs.len();
         let mut q_mf = Array3::zeros((runs, n_s, n_a));
         let mut q_mb = Array3::zeros((runs, n_s, n_a));
         for (r, config) in configs.iter().enumerate() {
@@ -276,11 +279,12 @@ impl Batch {
             ring_pos: Array2::zeros((runs, pairs)),
             outcome_count: Array2::zeros((runs, n_outcomes)),
             outcome_reward: Array2::zeros((runs, n_outcomes)),
+            outcome_terminal: Array2::from_elem((runs, n_outcomes), false),
             known: Array2::from_elem((runs, n_s), false),
             vi_best: Array2::from_elem((runs, n_s), f64::NAN),
-            vi_dirty: Array2::zeros((runs, dirty_words(&spec))),
+            vi_dirty: Array2::zeros((runs, obs.dirty_words())),
             vi_terms: vec![0; runs],
-            preds: Arc::new(Predecessors::new(&spec)),
+            obs,
             scratch: Array2::zeros((runs, 2 * n_a)),
             rngs,
             cursors,
@@ -318,6 +322,7 @@ impl Batch {
             ("ring_pos", bytes(&self.ring_pos)),
             ("outcome_count", bytes(&self.outcome_count)),
             ("outcome_reward", bytes(&self.outcome_reward)),
+            ("outcome_terminal", bytes(&self.outcome_terminal)),
             ("known", bytes(&self.known)),
             ("vi_best", bytes(&self.vi_best)),
             ("vi_dirty", bytes(&self.vi_dirty)),
@@ -406,9 +411,8 @@ impl Batch {
                 if lens[sa] == 0 {
                     continue;
                 }
-                for o in spec.outcomes(sa) {
-                    t[[s, a, spec.outcome_state[o] as usize]] =
-                        f64::from(counts[o]) / f64::from(lens[sa]);
+                for o in self.obs.outcomes(sa) {
+                    t[[s, a, self.obs.next_state(o)]] = f64::from(counts[o]) / f64::from(lens[sa]);
                 }
             }
         }
@@ -445,7 +449,7 @@ impl Batch {
     fn views(&mut self) -> Vec<(&Params, RunView<'_>)> {
         let (n_s, n_a) = (self.spec.n_states, self.spec.n_actions);
         let sa = n_s * n_a;
-        let n_o = self.spec.outcome_state.len();
+        let n_o = self.obs.len();
         fn rows<T>(a: &mut [T], len: usize) -> std::slice::ChunksMut<'_, T> {
             a.chunks_mut(len.max(1))
         }
@@ -471,6 +475,12 @@ impl Batch {
             self.outcome_reward.as_slice_mut().expect("standard layout"),
             n_o,
         );
+        let mut terminal = rows(
+            self.outcome_terminal
+                .as_slice_mut()
+                .expect("standard layout"),
+            n_o,
+        );
         let mut known = rows(self.known.as_slice_mut().expect("standard layout"), n_s);
         let mut vi_best = rows(self.vi_best.as_slice_mut().expect("standard layout"), n_s);
         let words = self.vi_dirty.ncols();
@@ -479,7 +489,7 @@ impl Batch {
             words,
         );
         let mut vi_terms = self.vi_terms.iter_mut();
-        let preds: &Predecessors = &self.preds;
+        let obs: &Observable = &self.obs;
         let mut scratch = rows(
             self.scratch.as_slice_mut().expect("standard layout"),
             2 * n_a,
@@ -511,11 +521,12 @@ impl Batch {
                     ring_pos: ring_pos.next().expect("one row per run"),
                     count: count.next().expect("one row per run"),
                     reward: reward.next().expect("one row per run"),
+                    terminal: terminal.next().expect("one row per run"),
                     known: known.next().expect("one row per run"),
                     best: vi_best.next().expect("one row per run"),
                     dirty: vi_dirty.next().expect("one row per run"),
                     active_terms: vi_terms.next().expect("one per run"),
-                    preds,
+                    obs,
                 },
                 scratch: scratch.next().expect("one row per run"),
                 rng,

@@ -105,7 +105,8 @@ fn act(
     );
     run.bonus[sa] = g;
 
-    // 8. Learning, by every expert the controller runs.
+    // 8. Learning, by every expert the controller runs. The arrival is terminal when it is the
+    // goal at this time (SPEC 10): both experts learn that from the transition itself.
     let terminal = next == spec.goal as usize;
     if params.controller.runs_mf() {
         mf::learn(
@@ -121,8 +122,15 @@ fn act(
         );
     }
     if params.controller.runs_mb() {
-        run.model
-            .learn(spec, window_cap, params.window_n as usize, s, a, o, reward);
+        run.model.learn(
+            window_cap,
+            params.window_n as usize,
+            s,
+            a,
+            next,
+            reward,
+            terminal,
+        );
     }
 
     if !babbling {
@@ -179,7 +187,6 @@ fn decide(spec: &Spec, params: &Params, run: &mut RunView<'_>, s: usize, babblin
         let started = wallclock.then(Instant::now);
         // Only value iteration writes the MB's Q table, so its cached row maxima stay valid.
         let report = run.model.value_iteration_cached(
-            spec,
             run.q_mb,
             params.gamma_mb,
             params.vi_epsilon,

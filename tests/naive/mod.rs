@@ -82,6 +82,8 @@ pub struct NaiveRun {
     window: Vec<Vec<VecDeque<usize>>>,
     /// Most recent reward received on each (s, a, s').
     last_reward: HashMap<(usize, usize, usize), f64>,
+    /// Whether the most recent arrival on each (s, a, s') was terminal (SPEC 10).
+    last_terminal: HashMap<(usize, usize, usize), bool>,
     stats: RunStats,
     series: Vec<Checkpoint>,
     /// Sum of P(MB) over the decisions since the last checkpoint.
@@ -131,6 +133,7 @@ impl NaiveRun {
             g: vec![vec![false; n_a]; n_s],
             window: vec![vec![VecDeque::new(); n_a]; n_s],
             last_reward: HashMap::new(),
+            last_terminal: HashMap::new(),
             stats: RunStats::default(),
             series: Vec::new(),
             window_p_mb: 0.0,
@@ -296,12 +299,13 @@ impl NaiveRun {
         }
         self.g[s][a] = given;
 
-        // 8. Learning.
+        // 8. Learning. The arrival is terminal when it is the goal at this time (SPEC 10).
+        let terminal = next == self.spec.goal as usize;
         if self.runs_mf() {
-            self.mf_learn(s, a, reward, next);
+            self.mf_learn(s, a, reward, next, terminal);
         }
         if self.runs_mb() {
-            self.mb_learn(s, a, reward, next);
+            self.mb_learn(s, a, reward, next, terminal);
         }
 
         if !babbling {
@@ -461,7 +465,6 @@ impl NaiveRun {
     /// ops (SPEC 6).
     fn value_iteration(&mut self) -> u64 {
         let (n_s, n_a) = (self.spec.n_states, self.spec.n_actions);
-        let goal = self.spec.goal as usize;
         let gamma = self.params.gamma_mb;
         let mut ops = 0;
         let mut sweeps = 0;
@@ -482,7 +485,7 @@ impl NaiveRun {
                     }
                     let mut value = 0.0;
                     for (&next, &p) in &t {
-                        let future = if next == goal {
+                        let future = if self.last_terminal[&(s, a, next)] {
                             0.0
                         } else {
                             max(&self.q_mb[next])
@@ -526,25 +529,23 @@ impl NaiveRun {
         self.window[s].iter().any(|w| !w.is_empty())
     }
 
-    /// Eq. 4; the goal is terminal.
-    fn mf_learn(&mut self, s: usize, a: usize, r: f64, next: usize) {
-        let future = if next == self.spec.goal as usize {
-            0.0
-        } else {
-            max(&self.q_mf[next])
-        };
+    /// Eq. 4; no future term after a terminal arrival.
+    fn mf_learn(&mut self, s: usize, a: usize, r: f64, next: usize, terminal: bool) {
+        let future = if terminal { 0.0 } else { max(&self.q_mf[next]) };
         let q = self.q_mf[s][a];
         self.q_mf[s][a] = q + self.params.alpha_mf * (r + self.params.gamma_mf * future - q);
     }
 
-    /// SPEC 3.2: keep the last N outcomes of (s, a) and the last reward of (s, a, s').
-    fn mb_learn(&mut self, s: usize, a: usize, r: f64, next: usize) {
+    /// SPEC 3.2 and 10: keep the last N outcomes of (s, a), and the last reward of (s, a, s') and
+    /// whether that arrival was terminal.
+    fn mb_learn(&mut self, s: usize, a: usize, r: f64, next: usize, terminal: bool) {
         let kept = &mut self.window[s][a];
         kept.push_back(next);
         if kept.len() > self.params.window_n as usize {
             kept.pop_front();
         }
         self.last_reward.insert((s, a, next), r);
+        self.last_terminal.insert((s, a, next), terminal);
     }
 
     /// The environment's answer to (s, a): one draw only when several outcomes are possible.
