@@ -8,14 +8,16 @@ use anyhow::{Context, Result, anyhow};
 use clap::{Args, Parser, Subcommand, ValueEnum};
 
 use crate::batch::{Batch, RunConfig};
+use crate::env::tidy::Boxes;
 use crate::env::{self, Spec};
 use crate::error::ConfigError;
 use crate::experiment;
 use crate::output;
 use crate::params::{
-    Controller, CostModel, HumanParams, Interaction, Params, Profile, Selection, cli_flag,
-    default_steps,
+    CongratulationEffect, Controller, CostModel, HumanParams, Interaction, Params, Profile,
+    RewardSource, Selection, cli_flag, default_steps,
 };
+use crate::schedule::Schedule;
 
 /// Exit code for bad usage: unknown flags, values out of range, unreadable inputs.
 pub const EXIT_USAGE: i32 = 2;
@@ -242,6 +244,26 @@ pub enum InteractionArg {
     Takeover,
     /// Penalty zeta on errors.
     Punishment,
+    /// The human takes a cube just put in its box back out (SPEC 11.2).
+    Nuisance,
+}
+
+/// Who brings the goal's reward (SPEC 11.1).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum RewardSourceArg {
+    /// The environment, at every arrival in the goal.
+    Environment,
+    /// Only an attentive human with budget left.
+    Human,
+}
+
+/// How a congratulation acts (SPEC 11.3).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum CongratulationEffectArg {
+    /// A bias of zeta in the softmax (Eq. 8).
+    Bias,
+    /// Reward shaping: learned with r + zeta.
+    Reward,
 }
 
 impl From<InteractionArg> for Interaction {
@@ -251,6 +273,7 @@ impl From<InteractionArg> for Interaction {
             InteractionArg::Congratulation => Interaction::Congratulation,
             InteractionArg::Takeover => Interaction::Takeover,
             InteractionArg::Punishment => Interaction::Punishment,
+            InteractionArg::Nuisance => Interaction::Nuisance,
         }
     }
 }
@@ -270,6 +293,10 @@ pub enum ProfileArg {
     Stingy,
     /// Congratulation, budget 10, then silence.
     StopsEarly,
+    /// Only the human brings reward, 300 times (forget 0), then leaves.
+    RewardsThenLeaves,
+    /// A nuisance with a budget of 300.
+    Nuisance,
 }
 
 impl From<ProfileArg> for Profile {
@@ -281,6 +308,8 @@ impl From<ProfileArg> for Profile {
             ProfileArg::Generous => Profile::Generous,
             ProfileArg::Stingy => Profile::Stingy,
             ProfileArg::StopsEarly => Profile::StopsEarly,
+            ProfileArg::RewardsThenLeaves => Profile::RewardsThenLeaves,
+            ProfileArg::Nuisance => Profile::Nuisance,
         }
     }
 }
@@ -357,6 +386,27 @@ pub struct RunArgs {
     /// The simulated human.
     #[command(flatten)]
     pub human: HumanArgs,
+    /// A change during the run at experiment step STEP (repeatable; events at one step apply in
+    /// the order given): world=json:PATH, goal=S[:R], delete=S-T,..., boxes=PERM (tidy1),
+    /// interaction=, budget= (left), forget=, zeta=, profile=, reward_source=.
+    /// Example: --change 1601:goal=34 --change 1601:world=json:PATH
+    #[arg(long = "change", value_name = "STEP:KEY=VALUE")]
+    pub change: Vec<String>,
+    /// tidy1's box assignment for the whole run, a permutation of rgb (position i: the box of
+    /// cube i). Default rgb.
+    #[arg(long, value_parser = boxes)]
+    pub boxes: Option<Boxes>,
+    /// Who brings the goal's reward. Default environment.
+    #[arg(long, value_enum)]
+    pub reward_source: Option<RewardSourceArg>,
+    /// How a congratulation acts: bias (Eq. 8) or reward (shaping). Default bias.
+    #[arg(long, value_enum)]
+    pub congratulation_effect: Option<CongratulationEffectArg>,
+}
+
+/// `--boxes`.
+fn boxes(text: &str) -> Result<Boxes, String> {
+    Boxes::parse(text)
 }
 
 /// Most runs per controller of one `mbmf run` (every configuration is held in memory).
@@ -549,6 +599,28 @@ pub fn run_configs(args: &RunArgs) -> Result<Vec<RunConfig>> {
             ..Params::default()
         };
         args.model.apply(&mut params);
+        if let Some(source) = args
+            .human
+            .profile
+            .and_then(|p| Profile::from(p).reward_source())
+        {
+            params.reward_source = source;
+        }
+        if let Some(source) = args.reward_source {
+            params.reward_source = match source {
+                RewardSourceArg::Environment => RewardSource::Environment,
+                RewardSourceArg::Human => RewardSource::Human,
+            };
+        }
+        if let Some(effect) = args.congratulation_effect {
+            params.congratulation_effect = match effect {
+                CongratulationEffectArg::Bias => CongratulationEffect::Bias,
+                CongratulationEffectArg::Reward => CongratulationEffect::Reward,
+            };
+        }
+        if let Some(b) = args.boxes {
+            params.boxes = b;
+        }
         params.validate().map_err(explain)?;
         for r in 0..args.runs {
             configs.push(RunConfig {
@@ -572,13 +644,19 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
     .map_err(usage)?;
     let spec = Arc::new(spec);
     let configs = run_configs(args).map_err(usage)?;
+    let schedule = Schedule::from_events(args.change.iter().map(String::as_str))
+        .map_err(|e| usage(anyhow!("--change: {e}")))?;
     // Runs of one controller share their parameters: check the first of each.
     for c in configs.iter().step_by(args.runs.max(1) as usize) {
         crate::batch::validate_for_spec(&spec, &c.params).map_err(|e| usage(explain(e)))?;
         c.params
             .validate_for_reward(spec.goal_reward)
             .map_err(|e| usage(explain(e)))?;
+        crate::schedule::compile(&spec, &schedule, &c.params)
+            .map_err(|e| usage(anyhow!("--change: {e}")))?;
     }
+    let schedules = [schedule];
+    let run_schedule = vec![0; configs.len()];
     let batch_size = plan_batch_size(&spec, &configs, args.batch_size).map_err(usage)?;
     let [runs_target, series_target] = prepare_out(&args.out)?;
     let staging = Staging::create(&args.out)?;
@@ -609,12 +687,20 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
     let bar = experiment::progress_bar(experiment::agent_steps(&configs), args.quiet);
     let mut summary = Summary::default();
     let started = std::time::Instant::now();
-    experiment::simulate(&spec, &configs, batch_size, &bar, |batch: &Batch| {
-        runs_sink.write(&output::runs_batch(batch)?)?;
-        series_sink.write(&output::series_batch(batch)?)?;
-        summary.add(batch);
-        Ok::<(), anyhow::Error>(())
-    })
+    experiment::simulate_with_schedules(
+        &spec,
+        &configs,
+        &schedules,
+        &run_schedule,
+        batch_size,
+        &bar,
+        |batch: &Batch| {
+            runs_sink.write(&output::runs_batch(batch)?)?;
+            series_sink.write(&output::series_batch(batch)?)?;
+            summary.add(batch);
+            Ok::<(), anyhow::Error>(())
+        },
+    )
     .map_err(runtime)?;
     bar.finish_and_clear();
     let runs_staged = runs_sink.finish().map_err(runtime)?;

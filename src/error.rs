@@ -116,6 +116,12 @@ pub enum ConfigError {
         /// The interaction type asked for.
         interaction: String,
     },
+    /// A schedule of changes that cannot be read or does not fit the task (SPEC 10).
+    #[error(transparent)]
+    Schedule(#[from] crate::schedule::ScheduleError),
+    /// More distinct schedules in one batch than the engine indexes.
+    #[error("too many distinct schedules in one batch (at most 65534): split the runs")]
+    TooManySchedules,
 }
 
 #[cfg(test)]

@@ -8,6 +8,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use crate::batch::{Batch, RunConfig};
 use crate::env::Spec;
 use crate::error::ConfigError;
+use crate::schedule::Schedule;
 
 /// Steps every run advances between two progress updates.
 const PROGRESS_STRIDE: u64 = 2_000;
@@ -45,10 +46,30 @@ pub fn simulate<E: From<ConfigError>>(
     configs: &[RunConfig],
     batch_size: usize,
     bar: &ProgressBar,
+    on_batch: impl FnMut(&Batch) -> Result<(), E>,
+) -> Result<(), E> {
+    simulate_with_schedules(spec, configs, &[], &[], batch_size, bar, on_batch)
+}
+
+/// [`simulate`] where run `i` follows `schedules[run_schedule[i]]` (SPEC 10; an empty
+/// `run_schedule` means no changes).
+pub fn simulate_with_schedules<E: From<ConfigError>>(
+    spec: &Arc<Spec>,
+    configs: &[RunConfig],
+    schedules: &[Schedule],
+    run_schedule: &[usize],
+    batch_size: usize,
+    bar: &ProgressBar,
     mut on_batch: impl FnMut(&Batch) -> Result<(), E>,
 ) -> Result<(), E> {
-    for chunk in configs.chunks(batch_size.max(1)) {
-        let mut batch = Batch::new(Arc::clone(spec), chunk.to_vec())?;
+    let size = batch_size.max(1);
+    for (k, chunk) in configs.chunks(size).enumerate() {
+        let which = if run_schedule.is_empty() {
+            &[][..]
+        } else {
+            &run_schedule[k * size..k * size + chunk.len()]
+        };
+        let mut batch = Batch::with_schedules(Arc::clone(spec), chunk.to_vec(), schedules, which)?;
         let longest = chunk
             .iter()
             .map(|c| u64::from(c.params.babbling) + u64::from(c.params.steps))

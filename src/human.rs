@@ -1,13 +1,14 @@
-//! The simulated human (SPEC 5): takeover, congratulation and punishment, forgetting and the
-//! budget, as pure functions over one run's counters. The step kernel (`batch::step`) calls them
+//! The simulated human (SPEC 5, 11): takeover, congratulation and punishment, nuisance, reward
+//! given by the human only, forgetting and the budget, as pure functions over one run's
+//! counters. The step kernel (`batch::step`) calls them
 //! at the points of SPEC 3.4; each draws the human's attentiveness from the run's stream only
 //! when there is an opportunity, so the draw order is the one documented there.
 
 use rand_xoshiro::Xoshiro256PlusPlus;
 
 use crate::batch::{RunStats, uniform};
-use crate::env::{HumanTables, NO_TAKEOVER};
-use crate::params::{HumanParams, Interaction};
+use crate::env::{HumanTables, NO_NUISANCE, NO_TAKEOVER};
+use crate::params::{CongratulationEffect, HumanParams, Interaction};
 
 /// Spends one unit of budget at experiment step `t_exp`, recording the step that spends the last.
 #[inline]
@@ -94,12 +95,69 @@ pub fn feedback(
     }
 }
 
-/// The weight of G(s, a) in the experts' softmax (Eq. 8): +zeta for congratulation, -zeta for
-/// punishment, 0 otherwise.
+/// SPEC 11.2 after the robot's relevant action `sa`: the state an attentive nuisance human with
+/// budget left leaves (the cube taken back out onto the table), else `None`. Counts nuisances
+/// and forgotten opportunities.
 #[inline]
-pub fn bonus_weight(human: &HumanParams) -> f64 {
+pub fn nuisance(
+    human: &HumanParams,
+    tables: Option<&HumanTables>,
+    active: bool,
+    sa: usize,
+    budget_left: &mut u32,
+    stats: &mut RunStats,
+    t_exp: u32,
+    rng: &mut Xoshiro256PlusPlus,
+) -> Option<usize> {
+    if !active || *budget_left == 0 || human.interaction != Interaction::Nuisance {
+        return None;
+    }
+    let tables = tables?;
+    let undone = tables.nuisance[sa];
+    if !tables.relevant[sa] || undone == NO_NUISANCE {
+        return None;
+    }
+    if attentive(human, rng) {
+        stats.nuisances += 1;
+        spend_budget(budget_left, stats, t_exp);
+        Some(undone as usize)
+    } else {
+        stats.forgotten += 1;
+        None
+    }
+}
+
+/// SPEC 11.1 at an arrival in the goal after babbling, where only the human brings reward: the
+/// goal's `reward` if an attentive human with budget left gives it (spending one unit), else 0.
+/// Counts rewards given and forgotten opportunities.
+#[inline]
+pub fn reward(
+    human: &HumanParams,
+    reward: f64,
+    budget_left: &mut u32,
+    stats: &mut RunStats,
+    t_exp: u32,
+    rng: &mut Xoshiro256PlusPlus,
+) -> f64 {
+    if *budget_left == 0 {
+        return 0.0;
+    }
+    if attentive(human, rng) {
+        stats.rewards_given += 1;
+        spend_budget(budget_left, stats, t_exp);
+        reward
+    } else {
+        stats.forgotten += 1;
+        0.0
+    }
+}
+
+/// The weight of G(s, a) in the experts' softmax (Eq. 8): +zeta for congratulation, -zeta for
+/// punishment, 0 otherwise, and 0 for a congratulation that shapes the reward instead (11.3).
+#[inline]
+pub fn bonus_weight(human: &HumanParams, effect: CongratulationEffect) -> f64 {
     match human.interaction {
-        Interaction::Congratulation => human.zeta,
+        Interaction::Congratulation if effect == CongratulationEffect::Bias => human.zeta,
         Interaction::Punishment => -human.zeta,
         _ => 0.0,
     }

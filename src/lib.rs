@@ -20,4 +20,5 @@ pub mod output;
 pub mod params;
 pub mod plot;
 pub mod reproduce;
+pub mod schedule;
 pub mod sweep;

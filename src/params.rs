@@ -4,6 +4,7 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::env::tidy::Boxes;
 use crate::error::ConfigError;
 
 /// Which experts the meta-controller may choose from, and how (SPEC 4).
@@ -91,6 +92,66 @@ pub enum Interaction {
     Takeover,
     /// Penalty `zeta` in the softmax of an error just executed (the paper's future work).
     Punishment,
+    /// The human undoes a relevant action: the cube just put away goes back on the table
+    /// (SPEC 11.2, the paper's future work).
+    Nuisance,
+}
+
+impl Interaction {
+    /// The name used on the command line and in outputs.
+    pub fn name(self) -> &'static str {
+        match self {
+            Interaction::None => "none",
+            Interaction::Congratulation => "congratulation",
+            Interaction::Takeover => "takeover",
+            Interaction::Punishment => "punishment",
+            Interaction::Nuisance => "nuisance",
+        }
+    }
+}
+
+/// Who brings the goal's reward (SPEC 11.1).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum RewardSource {
+    /// The environment, at every arrival in the goal (SPEC 2).
+    #[default]
+    Environment,
+    /// The human only: an attentive human with budget left gives the goal's reward at an
+    /// arrival in the goal, spending one unit of budget; otherwise the arrival gives 0.
+    Human,
+}
+
+impl RewardSource {
+    /// The name used on the command line and in outputs.
+    pub fn name(self) -> &'static str {
+        match self {
+            RewardSource::Environment => "environment",
+            RewardSource::Human => "human",
+        }
+    }
+}
+
+/// How a congratulation acts (SPEC 11.3).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum CongratulationEffect {
+    /// On the choice: zeta * G(s, a) in the softmax (Eq. 8, the paper).
+    #[default]
+    Bias,
+    /// On the learning: the congratulated transition is learned with reward r + zeta by both
+    /// experts (reward shaping); no bias in the softmax.
+    Reward,
+}
+
+impl CongratulationEffect {
+    /// The name used on the command line and in outputs.
+    pub fn name(self) -> &'static str {
+        match self {
+            CongratulationEffect::Bias => "bias",
+            CongratulationEffect::Reward => "reward",
+        }
+    }
 }
 
 /// Named presets of the human's behaviour (SPEC 5), sweepable as a whole.
@@ -109,6 +170,11 @@ pub enum Profile {
     Stingy,
     /// Congratulation with a budget of 10, then silence.
     StopsEarly,
+    /// Only the human brings reward (SPEC 11.1), 300 times (never forgetting), then leaves:
+    /// no interaction type, reward source `human`, budget 300, forget 0.
+    RewardsThenLeaves,
+    /// A nuisance (SPEC 11.2) with a budget of 300.
+    Nuisance,
     /// Whatever the individual flags say.
     Custom,
 }
@@ -139,13 +205,15 @@ impl Default for HumanParams {
 
 impl Profile {
     /// All profiles with a fixed meaning (not `custom`).
-    pub const PRESETS: [Profile; 6] = [
+    pub const PRESETS: [Profile; 8] = [
         Profile::None,
         Profile::PaperCongratulation,
         Profile::PaperTakeover,
         Profile::Generous,
         Profile::Stingy,
         Profile::StopsEarly,
+        Profile::RewardsThenLeaves,
+        Profile::Nuisance,
     ];
 
     /// The name used on the command line and in outputs.
@@ -157,6 +225,8 @@ impl Profile {
             Profile::Generous => "generous",
             Profile::Stingy => "stingy",
             Profile::StopsEarly => "stops-early",
+            Profile::RewardsThenLeaves => "rewards-then-leaves",
+            Profile::Nuisance => "nuisance",
             Profile::Custom => "custom",
         }
     }
@@ -194,8 +264,27 @@ impl Profile {
                 budget: 10,
                 ..base
             },
+            Profile::RewardsThenLeaves => HumanParams {
+                budget: 300,
+                forget_prob: 0.0,
+                ..base
+            },
+            Profile::Nuisance => HumanParams {
+                interaction: Interaction::Nuisance,
+                budget: 300,
+                ..base
+            },
             Profile::Custom => return None,
         })
+    }
+
+    /// The reward source this profile implies, or `None` for `custom` (SPEC 11.1).
+    pub fn reward_source(self) -> Option<RewardSource> {
+        match self {
+            Profile::Custom => None,
+            Profile::RewardsThenLeaves => Some(RewardSource::Human),
+            _ => Some(RewardSource::Environment),
+        }
     }
 }
 
@@ -209,7 +298,7 @@ pub fn paper_budget(controller: Controller, interaction: Interaction) -> u32 {
         (Interaction::Congratulation | Interaction::Punishment, _) => 30,
         (Interaction::Takeover, Controller::Mf) => 200,
         (Interaction::Takeover, _) => 50,
-        (Interaction::None, _) => 0,
+        (Interaction::None | Interaction::Nuisance, _) => 0,
     }
 }
 
@@ -255,6 +344,12 @@ pub struct Params {
     pub babbling: u32,
     /// A checkpoint row is written every this many steps (and at the last step). Default 100.
     pub checkpoint: u32,
+    /// Who brings the goal's reward (SPEC 11.1). Default `environment`.
+    pub reward_source: RewardSource,
+    /// How a congratulation acts (SPEC 11.3). Default `bias` (Eq. 8).
+    pub congratulation_effect: CongratulationEffect,
+    /// `tidy1`'s box assignment for the whole run (SPEC 10). Default `rgb`.
+    pub boxes: Boxes,
 }
 
 impl Default for Params {
@@ -279,6 +374,9 @@ impl Default for Params {
             steps: 10_000,
             babbling: 1_000,
             checkpoint: 100,
+            reward_source: RewardSource::Environment,
+            congratulation_effect: CongratulationEffect::Bias,
+            boxes: Boxes::RGB,
         }
     }
 }
@@ -439,7 +537,11 @@ impl Params {
     ///
     /// [`validate`]: Params::validate
     pub fn validate_for_reward(&self, goal_reward: f64) -> Result<(), ConfigError> {
-        let reward = goal_reward.abs();
+        let mut reward = goal_reward.abs();
+        if self.congratulation_effect == CongratulationEffect::Reward {
+            // A congratulated transition is learned with r + zeta (SPEC 11.3).
+            reward += self.human.zeta;
+        }
         let discounts = [
             ("gamma_mf", self.gamma_mf, self.controller.runs_mf()),
             ("gamma_mb", self.gamma_mb, self.controller.runs_mb()),

@@ -119,12 +119,7 @@ impl Condition {
         s
     }
     fn interaction_name(&self) -> &'static str {
-        match self.interaction {
-            Interaction::None => "none",
-            Interaction::Congratulation => "congratulation",
-            Interaction::Takeover => "takeover",
-            Interaction::Punishment => "punishment",
-        }
+        self.interaction.name()
     }
 }
 

@@ -690,6 +690,19 @@ fn shipped_sweeps_are_valid_and_say_what_they_answer() {
             continue;
         }
         found += 1;
+        let text = std::fs::read_to_string(&path).unwrap();
+        let nav = repo().join("../shared/data/navworld/realisticNavWorld.json");
+        if text.contains("shared/data/") && !nav.exists() {
+            // The authors' files are not in the repository.
+            assert!(
+                std::env::var("CI").as_deref() != Ok("true"),
+                "{} needs {}",
+                path.display(),
+                nav.display()
+            );
+            eprintln!("skipped {}: {} is absent", path.display(), nav.display());
+            continue;
+        }
         let sweep = Sweep::load(&path).unwrap_or_else(|e| panic!("{e}"));
         let specs = sweep.load_specs().unwrap_or_else(|e| panic!("{e}"));
         sweep.check(&specs).unwrap_or_else(|e| panic!("{e}"));

@@ -141,7 +141,17 @@ where
     );
     cols.u32("steps", c.clone().map(|r| r.params.steps));
     cols.u32("babbling", c.clone().map(|r| r.params.babbling));
-    cols.u32("checkpoint", c.map(|r| r.params.checkpoint));
+    cols.u32("checkpoint", c.clone().map(|r| r.params.checkpoint));
+    cols.str(
+        "reward_source",
+        c.clone().map(|r| r.params.reward_source.name()),
+    );
+    cols.str(
+        "congratulation_effect",
+        c.clone().map(|r| r.params.congratulation_effect.name()),
+    );
+    let boxes: Vec<String> = c.map(|r| r.params.boxes.to_string()).collect();
+    cols.str("boxes", boxes.iter().map(String::as_str));
 }
 
 fn selection_name(p: &crate::params::Params) -> &'static str {
@@ -160,12 +170,7 @@ fn cost_model_name(p: &crate::params::Params) -> &'static str {
 
 /// Name of the interaction type, as on the command line.
 pub fn interaction_name(p: &crate::params::Params) -> &'static str {
-    match p.human.interaction {
-        crate::params::Interaction::None => "none",
-        crate::params::Interaction::Congratulation => "congratulation",
-        crate::params::Interaction::Takeover => "takeover",
-        crate::params::Interaction::Punishment => "punishment",
-    }
+    p.human.interaction.name()
 }
 
 fn ratio(num: f64, den: u64) -> Option<f64> {
@@ -189,6 +194,8 @@ pub fn runs_batch(batch: &Batch) -> Result<RecordBatch, OutputError> {
     cols.u32("congratulations", s.iter().map(|r| r.congratulations));
     cols.u32("takeovers", s.iter().map(|r| r.takeovers));
     cols.u32("punishments", s.iter().map(|r| r.punishments));
+    cols.u32("rewards_given", s.iter().map(|r| r.rewards_given));
+    cols.u32("nuisances", s.iter().map(|r| r.nuisances));
     cols.u32("forgotten", s.iter().map(|r| r.forgotten));
     cols.opt_u32(
         "budget_exhausted_step",
@@ -212,6 +219,22 @@ pub fn runs_batch(batch: &Batch) -> Result<RecordBatch, OutputError> {
         "mean_entropy_chosen",
         s.iter().map(|r| ratio(r.entropy_sum, r.decisions)),
     );
+    cols.str("schedule", (0..batch.len()).map(|r| batch.schedule_text(r)));
+    cols.opt_u32(
+        "first_change_step",
+        s.iter()
+            .map(|r| (r.first_change_step > 0).then_some(r.first_change_step)),
+    );
+    cols.opt_f64(
+        "reward_before_change",
+        s.iter()
+            .map(|r| (r.first_change_step > 0).then_some(r.reward_before_change)),
+    );
+    cols.opt_f64(
+        "reward_after_change",
+        s.iter().map(|r| r.reward_after_change()),
+    );
+    cols.opt_u32("recovery_steps", s.iter().map(|r| r.recovery_steps()));
     cols.u64("vi_calls", s.iter().map(|r| r.vi_calls));
     cols.u64("vi_sweeps", s.iter().map(|r| r.vi_sweeps));
     cols.u64("vi_capped", s.iter().map(|r| r.vi_capped));

@@ -4,7 +4,10 @@
 use crate::error::edit_distance;
 use std::fmt;
 
-use crate::params::{Controller, CostModel, Interaction, Params, Selection};
+use crate::env::tidy::Boxes;
+use crate::params::{
+    CongratulationEffect, Controller, CostModel, Interaction, Params, RewardSource, Selection,
+};
 
 /// A parameter a sweep file may set.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -55,10 +58,18 @@ pub enum Key {
     Babbling,
     /// `checkpoint`.
     Checkpoint,
+    /// `boxes`: tidy1's box assignment.
+    Boxes,
+    /// `reward_source`.
+    RewardSource,
+    /// `congratulation_effect`.
+    CongratulationEffect,
+    /// `change`: a schedule of changes during the run (SPEC 10), events joined by `;`.
+    Change,
 }
 
 /// Number of keys (the length of [`KEYS`]).
-pub const N_KEYS: usize = 23;
+pub const N_KEYS: usize = 27;
 
 /// What values a key takes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -75,6 +86,8 @@ pub enum Kind {
     Task,
     /// A built-in profile name or one defined in the file.
     Profile,
+    /// A schedule of changes, `STEP:KEY=VALUE` events joined by `;`.
+    Schedule,
 }
 
 /// A key's name, aliases, kind and help line.
@@ -99,7 +112,19 @@ pub const SELECTIONS: &[&str] = &["softmax", "argmax"];
 /// Names of the cost models.
 pub const COST_MODELS: &[&str] = &["ops", "wallclock"];
 /// Names of the interaction types.
-pub const INTERACTIONS: &[&str] = &["none", "congratulation", "takeover", "punishment"];
+pub const INTERACTIONS: &[&str] = &[
+    "none",
+    "congratulation",
+    "takeover",
+    "punishment",
+    "nuisance",
+];
+/// tidy1's box assignments (permutations of `rgb`).
+pub const BOX_ASSIGNMENTS: &[&str] = &["rgb", "rbg", "grb", "gbr", "brg", "bgr"];
+/// Names of the reward sources.
+pub const REWARD_SOURCES: &[&str] = &["environment", "human"];
+/// Names of the congratulation effects.
+pub const CONGRATULATION_EFFECTS: &[&str] = &["bias", "reward"];
 
 /// Every key, in the order listings show them (a [`Key`] indexes this array).
 pub const KEYS: [KeyInfo; N_KEYS] = [
@@ -264,6 +289,34 @@ pub const KEYS: [KeyInfo; N_KEYS] = [
         Kind::Count,
         "series row every this many steps (default 100)",
     ),
+    info(
+        Key::Boxes,
+        "boxes",
+        &[],
+        Kind::Choice(BOX_ASSIGNMENTS),
+        "tidy1 box assignment, position i the box of cube i (default rgb)",
+    ),
+    info(
+        Key::RewardSource,
+        "reward_source",
+        &[],
+        Kind::Choice(REWARD_SOURCES),
+        "who brings the goal's reward (default environment)",
+    ),
+    info(
+        Key::CongratulationEffect,
+        "congratulation_effect",
+        &[],
+        Kind::Choice(CONGRATULATION_EFFECTS),
+        "congratulation as a softmax bias or as reward shaping (default bias)",
+    ),
+    info(
+        Key::Change,
+        "change",
+        &["changes", "schedule"],
+        Kind::Schedule,
+        "changes during the run, e.g. \"1601:goal=34;1601:world=json:PATH\" (default none)",
+    ),
 ];
 
 const fn info(
@@ -305,7 +358,7 @@ impl Key {
     pub fn is_human(self) -> bool {
         matches!(
             self,
-            Key::Interaction | Key::Budget | Key::Zeta | Key::Forget
+            Key::Interaction | Key::Budget | Key::Zeta | Key::Forget | Key::RewardSource
         )
     }
 
@@ -367,7 +420,7 @@ pub fn apply(key: Key, value: &Value, params: &mut Params) {
         _ => 0,
     };
     match key {
-        Key::Task | Key::Profile => {}
+        Key::Task | Key::Profile | Key::Change => {}
         Key::Controller => {
             if let Value::Choice(name) = value
                 && let Some(c) = Controller::ALL.iter().find(|c| c.name() == *name)
@@ -405,6 +458,7 @@ pub fn apply(key: Key, value: &Value, params: &mut Params) {
                 Value::Choice("congratulation") => Interaction::Congratulation,
                 Value::Choice("takeover") => Interaction::Takeover,
                 Value::Choice("punishment") => Interaction::Punishment,
+                Value::Choice("nuisance") => Interaction::Nuisance,
                 _ => Interaction::None,
             }
         }
@@ -414,6 +468,27 @@ pub fn apply(key: Key, value: &Value, params: &mut Params) {
         Key::Steps => params.steps = count,
         Key::Babbling => params.babbling = count,
         Key::Checkpoint => params.checkpoint = count,
+        Key::Boxes => {
+            if let Value::Choice(name) = value
+                && let Ok(b) = Boxes::parse(name)
+            {
+                params.boxes = b;
+            }
+        }
+        Key::RewardSource => {
+            params.reward_source = if *value == Value::Choice("human") {
+                RewardSource::Human
+            } else {
+                RewardSource::Environment
+            }
+        }
+        Key::CongratulationEffect => {
+            params.congratulation_effect = if *value == Value::Choice("reward") {
+                CongratulationEffect::Reward
+            } else {
+                CongratulationEffect::Bias
+            }
+        }
     }
 }
 

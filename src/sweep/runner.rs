@@ -138,6 +138,8 @@ pub fn metadata(sweep: &Sweep) -> Vec<(String, String)> {
 struct Pending {
     configs: Vec<RunConfig>,
     meta: Vec<(u64, u32, usize)>,
+    /// Per run, its index into the sweep's schedules.
+    schedules: Vec<usize>,
 }
 
 /// Adds the sweep's own columns to a table from [`output`]: `config_index` and `seed_index`
@@ -223,6 +225,7 @@ fn plan(
                 run_index: run,
             });
             p.meta.push((config, s as u32, resolved.profile));
+            p.schedules.push(resolved.schedule);
             if p.configs.len() >= batch_size {
                 emit(resolved.task, std::mem::take(p))?;
             }
@@ -313,13 +316,19 @@ pub fn execute(
         &scan.done,
         options.batch_size.max(1),
         |task, pending| {
-            let Pending { configs, meta } = pending;
+            let Pending {
+                configs,
+                meta,
+                schedules,
+            } = pending;
             let first = configs.iter().map(|c| c.run_index).min().unwrap_or(0);
             let last = configs.iter().map(|c| c.run_index).max().unwrap_or(0);
             let name = store::part_name(first, last, total);
-            experiment::simulate(
+            experiment::simulate_with_schedules(
                 &specs[task],
                 &configs,
+                &sweep.schedules,
+                &schedules,
                 configs.len(),
                 &bar,
                 |batch: &Batch| {
