@@ -263,3 +263,80 @@ fn a_tidy1_run_with_a_box_change_and_a_nuisance_still_holds_under_64_kib_of_stat
         "{plain} {changing}"
     );
 }
+
+#[test]
+fn a_sweep_grid_over_schedules_runs_each_with_its_changes() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("changes.toml");
+    std::fs::write(
+        &file,
+        "# A grid over the step of a box change, and a nuisance arriving mid-run.\n\
+         seeds = 2\n\
+         [fixed]\n\
+         task = \"tidy1\"\n\
+         steps = 600\n\
+         babbling = 100\n\
+         [grid]\n\
+         change = [\"\", \"300:boxes=brg\", \"400:boxes=brg\", \"200:interaction=nuisance;200:budget=20\"]\n\
+         controller = [\"mf\", \"ec\"]\n",
+    )
+    .unwrap();
+    let out = dir.path().join("out");
+    let output = mbmf(&[
+        "sweep",
+        file.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(output.status.success(), "{output:?}");
+    let mut runs = Vec::new();
+    for entry in std::fs::read_dir(out.join("runs")).unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().is_some_and(|e| e == "parquet") {
+            let file = std::fs::File::open(&path).unwrap();
+            for batch in ParquetRecordBatchReaderBuilder::try_new(file)
+                .unwrap()
+                .build()
+                .unwrap()
+            {
+                runs.push(batch.unwrap());
+            }
+        }
+    }
+    let runs = arrow::compute::concat_batches(&runs[0].schema(), &runs).unwrap();
+    assert_eq!(runs.num_rows(), 16);
+    let schedules = strings(&runs, "schedule");
+    let first = numbers(&runs, "first_change_step");
+    let nuisances = numbers(&runs, "nuisances");
+    for i in 0..16 {
+        let expected = match schedules[i].as_str() {
+            "" => None,
+            "300:boxes=brg" => Some(300.0),
+            "400:boxes=brg" => Some(400.0),
+            "200:interaction=nuisance;200:budget=20" => Some(200.0),
+            other => panic!("unexpected schedule {other}"),
+        };
+        assert_eq!(first[i], expected, "{}", schedules[i]);
+        let nuisance = schedules[i].contains("nuisance");
+        assert_eq!(nuisances[i].unwrap() > 0.0, nuisance, "{}", schedules[i]);
+    }
+    // A bad schedule is refused when the file is read, naming the key and the event.
+    std::fs::write(
+        &file,
+        "# bad\n[grid]\nchange = [\"300:boxes=brg\", \"300:goal=3\"]\n",
+    )
+    .unwrap();
+    let output = mbmf(&[
+        "sweep",
+        file.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains("300:goal=3") && stderr.contains("change"),
+        "{stderr}"
+    );
+}
