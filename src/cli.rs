@@ -53,7 +53,7 @@ pub fn runtime(error: impl Into<anyhow::Error>) -> Failure {
 #[derive(Debug, Parser)]
 #[command(
     name = "mbmf",
-    version,
+    version = crate::output::provenance::LONG_VERSION,
     about,
     long_about = None,
     help_expected = true,
@@ -82,6 +82,10 @@ pub enum Command {
     ///
     /// Example: mbmf sweep sweeps/kappa.toml --out out/kappa
     Sweep(Box<crate::sweep::SweepArgs>),
+    /// Merge a finished sweep dataset's parts into large files, atomically.
+    ///
+    /// Example: mbmf compact out/kappa
+    Compact(crate::sweep::CompactArgs),
     /// Pareto front over configurations of a dataset (reward, cost, learning quality).
     Pareto(crate::analysis::cli::ParetoArgs),
     /// Pairwise Wilcoxon-Mann-Whitney tests of a metric between groups of runs.
@@ -373,6 +377,9 @@ pub struct RunArgs {
     /// Output folder for runs.parquet and series.parquet (created if needed).
     #[arg(long, default_value = "out/run")]
     pub out: PathBuf,
+    /// Replace the results of an earlier run in --out (refused without it).
+    #[arg(long)]
+    pub force: bool,
     /// Runs simulated at once, >= 1 (lowered if a batch would not fit in memory); results do
     /// not depend on it.
     #[arg(long, default_value_t = 4096, value_parser = batch_size, allow_negative_numbers = true)]
@@ -658,7 +665,7 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
     let schedules = [schedule];
     let run_schedule = vec![0; configs.len()];
     let batch_size = plan_batch_size(&spec, &configs, args.batch_size).map_err(usage)?;
-    let [runs_target, series_target] = prepare_out(&args.out)?;
+    let [runs_target, series_target] = prepare_out(&args.out, args.force)?;
     let staging = Staging::create(&args.out)?;
     if batch_size < args.batch_size.min(configs.len()) && !args.quiet {
         eprintln!(
@@ -667,26 +674,13 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
             args.batch_size
         );
     }
-    let metadata = vec![
-        (
-            "mbmf_version".to_string(),
-            env!("CARGO_PKG_VERSION").to_string(),
-        ),
-        (
-            "mbmf_command".to_string(),
-            // Lossy: an argument that is not UTF-8 (a path) must not stop the run.
-            std::env::args_os()
-                .map(|a| a.to_string_lossy().into_owned())
-                .collect::<Vec<_>>()
-                .join(" "),
-        ),
-        ("master_seed".to_string(), args.seed.to_string()),
-    ];
-    let mut runs_sink = output::ParquetSink::new(&staging.0.join("runs.parquet"), metadata.clone());
-    let mut series_sink = output::ParquetSink::new(&staging.0.join("series.parquet"), metadata);
+    let [runs_meta, series_meta] = output::pair_metadata(args.seed);
+    let mut runs_sink = output::ParquetSink::new(&staging.0.join("runs.parquet"), runs_meta);
+    let mut series_sink = output::ParquetSink::new(&staging.0.join("series.parquet"), series_meta);
     let bar = experiment::progress_bar(experiment::agent_steps(&configs), args.quiet);
     let mut summary = Summary::default();
     let started = std::time::Instant::now();
+    let per = u64::from(args.runs);
     experiment::simulate_with_schedules(
         &spec,
         &configs,
@@ -695,8 +689,11 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
         batch_size,
         &bar,
         |batch: &Batch| {
-            runs_sink.write(&output::runs_batch(batch)?)?;
-            series_sink.write(&output::series_batch(batch)?)?;
+            runs_sink.write(&output::with_run_indices(output::runs_batch(batch)?, per)?)?;
+            series_sink.write(&output::with_run_indices(
+                output::series_batch(batch)?,
+                per,
+            )?)?;
             summary.add(batch);
             Ok::<(), anyhow::Error>(())
         },
@@ -705,7 +702,13 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
     bar.finish_and_clear();
     let runs_staged = runs_sink.finish().map_err(runtime)?;
     let series_staged = series_sink.finish().map_err(runtime)?;
-    staging.commit(&[(runs_staged, &runs_target), (series_staged, &series_target)])?;
+    output::atomic::commit_pair(
+        (&series_staged, &series_target),
+        (&runs_staged, &runs_target),
+    )
+    .with_context(|| format!("cannot move the results into {}", args.out.display()))
+    .map_err(runtime)?;
+    drop(staging);
     let (runs_path, series_path) = (runs_target, series_target);
     if !args.quiet {
         print_stdout(&summary.table(&args.task, configs.len(), started.elapsed().as_secs_f64()))?;
@@ -721,7 +724,7 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
 /// Checks and creates the output folder of `mbmf run`; returns the paths of runs.parquet and
 /// series.parquet. A file in the way is a usage error (2); a folder that cannot be created is a
 /// runtime failure (1). Both are found before anything is simulated.
-fn prepare_out(out: &Path) -> Result<[PathBuf; 2], Failure> {
+fn prepare_out(out: &Path, force: bool) -> Result<[PathBuf; 2], Failure> {
     // The nearest existing ancestor (the folder itself included) must be a folder.
     for ancestor in out.ancestors().filter(|a| !a.as_os_str().is_empty()) {
         if let Ok(metadata) = std::fs::metadata(ancestor) {
@@ -750,13 +753,24 @@ fn prepare_out(out: &Path) -> Result<[PathBuf; 2], Failure> {
             )));
         }
     }
+    let earlier: Vec<String> = targets
+        .iter()
+        .filter(|t| t.exists())
+        .map(|t| t.display().to_string())
+        .collect();
+    if !earlier.is_empty() && !force {
+        return Err(usage(anyhow!(
+            "--out {}: it holds the results of an earlier run ({}); pass --force to replace              them, or choose another --out",
+            out.display(),
+            earlier.join(", ")
+        )));
+    }
     Ok(targets)
 }
 
 /// A private folder inside the output folder where both Parquet files are written; they are
-/// moved into place only when both are complete, so a failure (a full disk, a kill) never
-/// leaves a runs.parquet without its series.parquet, nor a partial file under either name. The
-/// folder and anything left in it are removed when the value is dropped.
+/// moved into place as one commit ([`output::atomic::commit_pair`]) only when both are
+/// complete. The folder and anything left in it are removed when the value is dropped.
 struct Staging(PathBuf);
 
 impl Staging {
@@ -768,22 +782,6 @@ impl Staging {
             .with_context(|| format!("cannot write into output folder {}", out.display()))
             .map_err(runtime)?;
         Ok(Staging(dir))
-    }
-
-    /// Moves each finished file to its target. If a move fails, the targets already moved are
-    /// removed too, so no mismatched pair stays behind.
-    fn commit(self, files: &[(PathBuf, &PathBuf)]) -> Result<(), Failure> {
-        for (i, (from, to)) in files.iter().enumerate() {
-            if let Err(e) = std::fs::rename(from, to) {
-                for (_, moved) in &files[..i] {
-                    let _ = std::fs::remove_file(moved);
-                }
-                return Err(runtime(
-                    anyhow!(e).context(format!("cannot move the results to {}", to.display())),
-                ));
-            }
-        }
-        Ok(())
     }
 }
 
@@ -1091,6 +1089,7 @@ pub fn main_with_args(args: impl IntoIterator<Item = std::ffi::OsString>) -> Res
     match &cli.command {
         Command::Run(args) => run(args),
         Command::Sweep(args) => crate::sweep::command(args),
+        Command::Compact(args) => crate::sweep::compact_command(args),
         Command::Pareto(args) => crate::analysis::cli::pareto(args),
         Command::Stats(args) => crate::analysis::cli::stats(args),
         Command::MinBudget(args) => crate::analysis::cli::min_budget(args),

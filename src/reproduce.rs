@@ -334,19 +334,9 @@ fn simulate_all(args: &ReproduceArgs, scale: &Scale) -> Result<Vec<Outcome>> {
     let data = args.out.join("data");
     std::fs::create_dir_all(&data)
         .with_context(|| format!("cannot create output folder {}", data.display()))?;
-    let metadata = vec![
-        (
-            "mbmf_version".to_string(),
-            env!("CARGO_PKG_VERSION").to_string(),
-        ),
-        (
-            "mbmf_command".to_string(),
-            std::env::args().collect::<Vec<_>>().join(" "),
-        ),
-        ("master_seed".to_string(), args.seed.to_string()),
-    ];
-    let mut runs_sink = output::ParquetSink::new(&data.join("runs.parquet"), metadata.clone());
-    let mut series_sink = output::ParquetSink::new(&data.join("series.parquet"), metadata);
+    let [runs_meta, series_meta] = output::pair_metadata(args.seed);
+    let mut runs_sink = output::ParquetSink::new(&data.join("runs.parquet"), runs_meta);
+    let mut series_sink = output::ParquetSink::new(&data.join("series.parquet"), series_meta);
     let mut outcomes: Vec<Outcome> = conditions
         .iter()
         .map(|&condition| Outcome {

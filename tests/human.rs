@@ -423,7 +423,7 @@ fn babbling_counts_no_reward_no_cost_and_no_interaction() {
 
 #[test]
 fn the_cli_runs_ec_with_takeover_and_the_stingy_profile_and_reports_interactions() {
-    use arrow::array::{Array, StringArray, UInt32Array};
+    use arrow::array::{Array, Int64Array, StringArray};
     use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
     let dir = tempfile::tempdir().unwrap();
     for (name, extra) in [
@@ -461,7 +461,7 @@ fn the_cli_runs_ec_with_takeover_and_the_stingy_profile_and_reports_interactions
             .unwrap();
         let col = |n: &str| batch.column(batch.schema().index_of(n).unwrap()).clone();
         let interactions = col("interactions");
-        let interactions = interactions.as_any().downcast_ref::<UInt32Array>().unwrap();
+        let interactions = interactions.as_any().downcast_ref::<Int64Array>().unwrap();
         let profile = col("profile");
         let profile = profile.as_any().downcast_ref::<StringArray>().unwrap();
         assert_eq!(batch.num_rows(), 3);
@@ -474,7 +474,7 @@ fn the_cli_runs_ec_with_takeover_and_the_stingy_profile_and_reports_interactions
             assert_eq!(
                 budget
                     .as_any()
-                    .downcast_ref::<UInt32Array>()
+                    .downcast_ref::<Int64Array>()
                     .unwrap()
                     .value(0),
                 300

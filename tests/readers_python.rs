@@ -178,7 +178,44 @@ for name, glob_ in [("run", f"{run}/runs.parquet"), ("sweep", f"{sweep}/runs/*.p
     out[f"duckdb_{name}_series"] = con.sql(
         f"SELECT count(*) FROM read_parquet('{glob_.replace('runs', 'series')}')"
     ).fetchone()[0]
+# Signed counts: a difference is negative, not 1.8e19.
+out["pandas_mb_minus_decisions_min"] = int(
+    (lambda t: (t["mb_decisions"] - t["decisions"]).min())(pd.read_parquet(f"{run}/runs.parquet"))
+)
+out["duckdb_mb_minus_decisions_min"] = con.sql(
+    f"SELECT min(mb_decisions - decisions) FROM read_parquet('{run}/runs.parquet')"
+).fetchone()[0]
+out["polars_dtypes"] = {
+    c: str(t) for c, t in pl.read_parquet_schema(f"{run}/runs.parquet").items()
+}
+# Provenance and column documentation.
+pf = pq.ParquetFile(f"{run}/runs.parquet")
+kv = {k.decode(): v.decode() for k, v in pf.metadata.metadata.items() if k != b"ARROW:schema"}
+out["meta"] = kv
+field = pf.schema_arrow.field("kappa_coeff")
+out["kappa_doc"] = {k.decode(): v.decode() for k, v in (field.metadata or {}).items()}
+out["sweep_meta"] = {
+    k.decode(): v.decode()
+    for k, v in pq.ParquetFile(files["sweep_runs"][0]).metadata.metadata.items()
+    if k != b"ARROW:schema"
+}
 print(json.dumps(out))
+"#;
+
+/// After `mbmf pareto` and `mbmf min-budget` on a dataset (and on a sweep's `runs/` folder), the
+/// data folders hold only data: globs and folder reads still see the runs alone.
+const AFTER_ANALYSIS: &str = r#"
+import glob, json, sys
+import pandas as pd
+import polars as pl
+run, sweep = sys.argv[1], sys.argv[2]
+print(json.dumps({
+    "pandas_sweep_runs": len(pd.read_parquet(f"{sweep}/runs")),
+    "polars_sweep_runs": pl.scan_parquet(f"{sweep}/runs/**/*.parquet").select(pl.len()).collect().item(),
+    "polars_run_runs": pl.scan_parquet(f"{run}/runs.parquet").select(pl.len()).collect().item(),
+    "analysis": sorted(glob.glob(f"{sweep}/analysis/*") + glob.glob(f"{run}/analysis/*")),
+    "pareto_rows": pl.read_parquet(f"{sweep}/analysis/pareto.parquet").height,
+}))
 "#;
 
 const OLD: &str = r#"
@@ -270,4 +307,102 @@ fn current_polars_pandas_pyarrow_and_duckdb_read_run_and_sweep_files() {
     let want = sum(&sweep_runs, "total_reward");
     let have = got["duckdb_sweep_reward"].as_f64().unwrap();
     assert!((have - want).abs() <= 1e-9 * want.abs().max(1.0));
+
+    // mf never gives MB a decision: the difference is minus the decisions, in every reader.
+    let mf_decisions: i64 = run_runs
+        .iter()
+        .filter(|r| r["controller"] == "mf")
+        .map(|r| r["decisions"].parse::<i64>().unwrap())
+        .max()
+        .unwrap();
+    assert_eq!(got["pandas_mb_minus_decisions_min"], -mf_decisions);
+    assert_eq!(got["duckdb_mb_minus_decisions_min"], -mf_decisions);
+    let dtypes = &got["polars_dtypes"];
+    for c in [
+        "run_index",
+        "config_index",
+        "seed_index",
+        "decisions",
+        "mb_decisions",
+        "budget",
+        "steps",
+    ] {
+        assert_eq!(dtypes[c], "Int64", "{c}: {dtypes}");
+    }
+    assert_eq!(dtypes["master_seed"], "UInt64");
+    assert!(dtypes.get("seed").is_none(), "{dtypes}");
+
+    let meta = &got["meta"];
+    assert_eq!(meta["mbmf_schema"], "runs/2");
+    let commit = meta["mbmf_git_commit"].as_str().unwrap();
+    assert!(commit == "unknown" || commit.len() == 40, "{commit}");
+    for key in [
+        "mbmf_git_dirty",
+        "mbmf_rustc",
+        "mbmf_target",
+        "mbmf_host",
+        "mbmf_started_utc",
+        "mbmf_ended_utc",
+        "mbmf_threads",
+        "mbmf_command",
+        "mbmf_run_id",
+        "master_seed",
+    ] {
+        assert!(meta.get(key).is_some_and(|v| v != ""), "no {key} in {meta}");
+    }
+    assert!(
+        meta["mbmf_command"]
+            .as_str()
+            .unwrap()
+            .contains("--kappa-coeff 1.5")
+    );
+    assert!(meta["mbmf_started_utc"].as_str().unwrap() <= meta["mbmf_ended_utc"].as_str().unwrap());
+    assert_eq!(got["kappa_doc"]["unit"], "1/bit");
+    let sweep_meta = &got["sweep_meta"];
+    assert_eq!(sweep_meta["mbmf_schema"], "runs/2");
+    assert!(
+        sweep_meta["mbmf_command"]
+            .as_str()
+            .unwrap()
+            .contains("--shard 0/2")
+            || sweep_meta["mbmf_command"]
+                .as_str()
+                .unwrap()
+                .contains("--resume")
+    );
+    assert_eq!(
+        sweep_meta["mbmf_sweep_sha256"].as_str().unwrap().len(),
+        64,
+        "{sweep_meta}"
+    );
+
+    // Analysis outputs go to analysis/, never among the data files.
+    let s = w.sweep.to_str().unwrap();
+    let runs_folder = w.sweep.join("runs");
+    run_ok(&["pareto", s, "--no-plot"]);
+    run_ok(&["pareto", runs_folder.to_str().unwrap(), "--no-plot"]);
+    run_ok(&["min-budget", s]);
+    run_ok(&["pareto", w.run.to_str().unwrap()]);
+    let after = run_script(&py, AFTER_ANALYSIS, &[&w.run, &w.sweep]);
+    assert_eq!(after["pandas_sweep_runs"], sweep_runs.len(), "{after}");
+    assert_eq!(after["polars_sweep_runs"], sweep_runs.len(), "{after}");
+    assert_eq!(after["polars_run_runs"], run_runs.len(), "{after}");
+    assert!(after["pareto_rows"].as_u64().unwrap() > 0);
+    let mut written: Vec<String> = after["analysis"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|p| p.as_str().unwrap().rsplit('/').next().unwrap().to_string())
+        .collect();
+    written.sort();
+    assert_eq!(
+        written,
+        [
+            "min_budget.parquet",
+            "pareto.parquet",
+            "pareto.parquet",
+            "pareto.png",
+            "pareto.svg"
+        ]
+    );
 }

@@ -33,7 +33,8 @@ pub struct ParetoArgs {
     /// Keep only runs with COLUMN=VALUE (repeatable; every filter must hold).
     #[arg(long = "where", value_name = "COLUMN=VALUE", value_parser = Filter::parse)]
     pub filters: Vec<Filter>,
-    /// Folder for pareto.parquet, pareto.svg and pareto.png (default: the dataset's folder).
+    /// Folder for pareto.parquet, pareto.svg and pareto.png (default: analysis/ in the dataset's
+    /// folder, beside the data files, never among them).
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Write no figure.
@@ -78,7 +79,7 @@ pub struct MinBudgetArgs {
     /// Keep only runs with COLUMN=VALUE (repeatable; every filter must hold).
     #[arg(long = "where", value_name = "COLUMN=VALUE", value_parser = Filter::parse)]
     pub filters: Vec<Filter>,
-    /// Folder for min_budget.parquet (default: the dataset's folder).
+    /// Folder for min_budget.parquet (default: analysis/ in the dataset's folder).
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Also print every budget of every group (mean, sd, the budgets that beat it).
@@ -103,16 +104,11 @@ fn write_table(table: &Table, folder: &Path, name: &str) -> Result<PathBuf, Fail
     let batch = table
         .to_record_batch()
         .map_err(|e| runtime(anyhow!("internal error building {name}: {e}")))?;
-    let metadata = vec![
-        (
-            "mbmf_version".to_owned(),
-            env!("CARGO_PKG_VERSION").to_owned(),
-        ),
-        (
-            "mbmf_command".to_owned(),
-            std::env::args().collect::<Vec<_>>().join(" "),
-        ),
-    ];
+    let schema = match name {
+        "pareto.parquet" => crate::output::provenance::PARETO_SCHEMA,
+        _ => crate::output::provenance::MIN_BUDGET_SCHEMA,
+    };
+    let metadata = crate::output::provenance(schema, &crate::output::Context::default());
     crate::output::write_parquet(&folder.join(name), &batch, metadata).map_err(runtime)
 }
 

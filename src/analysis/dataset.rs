@@ -835,16 +835,30 @@ pub fn read_runs(path: &Path) -> Result<Table, DatasetError> {
     read_dataset(path, "runs")
 }
 
-/// The folder analyses write into by default: `path` if it is a folder, else its parent.
+/// The folder analyses write into by default: `analysis/` in the dataset's folder, never among
+/// the data files, so `pd.read_parquet(DIR/runs)` and globs over the data keep reading runs
+/// only. The dataset's folder is `path` if it is a folder, else the folder holding the file; a
+/// sweep's `runs/` or `series/` folder stands for the sweep's folder.
 pub fn output_folder(path: &Path) -> PathBuf {
-    if path.is_dir() {
+    let folder = if path.is_dir() {
         path.to_path_buf()
     } else {
         match path.parent() {
             Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
             _ => PathBuf::from("."),
         }
-    }
+    };
+    let in_sweep = folder
+        .file_name()
+        .is_some_and(|n| n == "runs" || n == "series")
+        && folder
+            .parent()
+            .is_some_and(|p| p.join(crate::sweep::store::SWEEP_FILE).is_file());
+    let root = match folder.parent() {
+        Some(p) if in_sweep => p.to_path_buf(),
+        _ => folder,
+    };
+    root.join("analysis")
 }
 
 /// The parameter columns `mbmf run` and `mbmf sweep` write (identity first: `run_index`,
@@ -873,7 +887,7 @@ pub fn parameter_columns() -> &'static [String] {
 
 /// Columns that identify a run rather than configure it or report on it: never grouped by,
 /// never averaged (`config_index` and `seed_index` are added by `mbmf sweep`).
-pub const RUN_IDENTITY: [&str; 4] = ["run_index", "seed", "config_index", "seed_index"];
+pub const RUN_IDENTITY: [&str; 4] = ["run_index", "master_seed", "config_index", "seed_index"];
 
 /// The configuration columns of `table`: its parameter columns except `run_index` and `seed`,
 /// in the order `mbmf` writes them.
@@ -1077,7 +1091,7 @@ mod tests {
     #[test]
     fn parameter_columns_start_with_the_run_identity() {
         let names = parameter_columns();
-        assert_eq!(&names[..2], ["run_index", "seed"]);
+        assert_eq!(&names[..2], ["run_index", "master_seed"]);
         assert!(names.iter().any(|n| n == "kappa_coeff"));
         assert!(names.iter().any(|n| n == "budget"));
     }

@@ -5,7 +5,7 @@
 //! - [`file`]: parsing and validation (messages name the file, line and key), expansion.
 //! - [`keys`]: the parameters a sweep may set and how they map to [`crate::params::Params`].
 //! - [`shard`]: `--shard I/N` and the Slurm / Kubernetes environment.
-//! - [`store`]: the dataset folder: atomic parts, lock, resume scan.
+//! - [`store`]: the dataset folder: atomic parts, lock, resume scan, compaction.
 //! - [`runner`]: batching, simulation, progress, and the `--dry-run` estimate.
 
 pub mod file;
@@ -161,6 +161,39 @@ pub fn describe_plan(sweep: &Sweep, shard: Shard) -> String {
         ));
     }
     lines.join("\n")
+}
+
+/// `mbmf compact`.
+#[derive(Debug, Clone, Args)]
+pub struct CompactArgs {
+    /// A finished sweep dataset (the --out folder of mbmf sweep).
+    pub dir: PathBuf,
+    /// Runs per merged file (parts with different text parameters are never merged, so a
+    /// filter on controller or interaction still skips files).
+    #[arg(long, default_value_t = 50_000, value_name = "N")]
+    pub runs_per_file: u64,
+}
+
+/// Runs `mbmf compact`: merges the parts of a finished dataset into large files, swapped in at
+/// once.
+pub fn compact_command(args: &CompactArgs) -> Result<(), Failure> {
+    if args.runs_per_file == 0 {
+        return Err(usage(anyhow!(
+            "--runs-per-file 0: give at least 1 run per file"
+        )));
+    }
+    let done = store::compact(&args.dir, args.runs_per_file).map_err(|e| match &e {
+        store::StoreError::Io { .. } | store::StoreError::Output(_) => runtime(e),
+        _ => usage(e),
+    })?;
+    println!(
+        "{}: {} runs in {} part(s) per table, {} before",
+        args.dir.display(),
+        done.runs,
+        done.parts_after,
+        done.parts_before
+    );
+    Ok(())
 }
 
 /// Runs `mbmf sweep`.

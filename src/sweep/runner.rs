@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Instant;
 
-use arrow::array::{ArrayRef, RecordBatch, StringArray, UInt32Array, UInt64Array};
+use arrow::array::{ArrayRef, RecordBatch, StringArray};
 use arrow::datatypes::{DataType, Field, Schema};
 
 use super::file::Sweep;
@@ -118,19 +118,22 @@ fn progress_bar(agent_steps: u64, quiet: bool) -> indicatif::ProgressBar {
     bar
 }
 
-/// Key-value metadata of every part file.
-pub fn metadata(sweep: &Sweep) -> Vec<(String, String)> {
-    vec![
-        (
-            "mbmf_version".to_string(),
-            env!("CARGO_PKG_VERSION").to_string(),
-        ),
+/// Key-value metadata of every part file written by `shard`: the provenance, then the sweep.
+pub fn metadata(sweep: &Sweep, shard: Shard) -> Vec<(String, String)> {
+    let context = output::Context {
+        started: None,
+        shard: (shard != Shard::ALL).then_some((shard.index, shard.count)),
+        sweep_text: Some(&sweep.text),
+    };
+    let mut kv = output::provenance(output::provenance::RUNS_SCHEMA, &context);
+    kv.extend([
         ("mbmf_sweep".to_string(), sweep.text.clone()),
         ("mbmf_sweep_file".to_string(), sweep.file.clone()),
         ("master_seed".to_string(), sweep.master_seed.to_string()),
         ("mbmf_sweep_runs".to_string(), sweep.runs().to_string()),
         ("mbmf_sweep_seeds".to_string(), sweep.seeds.to_string()),
-    ]
+    ]);
+    kv
 }
 
 /// A batch being filled: the runs and, for each, its configuration and seed index.
@@ -143,7 +146,7 @@ struct Pending {
 }
 
 /// Adds the sweep's own columns to a table from [`output`]: `config_index` and `seed_index`
-/// after `seed`, and the `profile` column with the sweep's profile names (user-defined profiles
+/// after `master_seed`, and the `profile` column with the sweep's profile names (user-defined profiles
 /// are `custom` to the engine).
 fn decorate(
     table: RecordBatch,
@@ -159,25 +162,19 @@ fn decorate(
                 .iter()
                 .map(|r| Some(sweep.profile_names[r.2].as_str()))
                 .collect();
-            fields.push(Field::new("profile", DataType::Utf8, false));
+            fields.push(output::columns::field("profile", DataType::Utf8, false));
             columns.push(Arc::new(names));
         } else {
             fields.push(field.as_ref().clone());
             columns.push(Arc::clone(column));
         }
-        if field.name() == "seed" {
-            fields.push(Field::new("config_index", DataType::UInt64, false));
-            columns.push(Arc::new(UInt64Array::from_iter_values(
-                rows.iter().map(|r| r.0),
-            )));
-            fields.push(Field::new("seed_index", DataType::UInt32, false));
-            columns.push(Arc::new(UInt32Array::from_iter_values(
-                rows.iter().map(|r| r.1),
-            )));
-        }
     }
     let schema = Arc::new(Schema::new_with_metadata(fields, schema.metadata().clone()));
-    Ok(RecordBatch::try_new(schema, columns)?)
+    output::insert_indices(
+        RecordBatch::try_new(schema, columns)?,
+        rows.iter().map(|r| r.0 as i64),
+        rows.iter().map(|r| i64::from(r.1)),
+    )
 }
 
 /// The runs and series tables of a finished batch, with the sweep's columns.
@@ -198,6 +195,12 @@ pub fn tables(
 
 /// The runs of `shard` not in `done`, grouped into batches of one task of at most `batch_size`
 /// runs, handed to `emit` one by one (so only a few batches exist at a time).
+///
+/// A batch holds one value of every text parameter (task, controller, selection, cost model,
+/// interaction, profile), so each part's statistics show a single value and a reader filtering
+/// on one (`controller == "ec"`) skips every other part. A batch is closed before a
+/// configuration that would not fit, so a configuration's runs share a part unless it alone has
+/// more than `batch_size` runs.
 fn plan(
     sweep: &Sweep,
     shard: Shard,
@@ -205,20 +208,36 @@ fn plan(
     batch_size: usize,
     mut emit: impl FnMut(usize, Pending) -> Result<(), RunError>,
 ) -> Result<(), RunError> {
-    let mut pending: Vec<Pending> = (0..sweep.tasks.len()).map(|_| Pending::default()).collect();
+    type Group = (usize, [&'static str; 4], usize);
+    let mut pending: std::collections::BTreeMap<Group, Pending> = Default::default();
     let seeds = u64::from(sweep.seeds);
     for config in shard.configs(sweep.configurations()) {
         let first = config * seeds;
-        if (0..seeds).all(|s| done.contains(first + s)) {
+        let missing = (0..seeds).filter(|s| !done.contains(first + s)).count();
+        if missing == 0 {
             continue;
         }
         let resolved = sweep.resolve(config);
+        let p = &resolved.params;
+        let group: Group = (
+            resolved.task,
+            [
+                p.controller.name(),
+                output::selection_name(p),
+                output::cost_model_name(p),
+                output::interaction_name(p),
+            ],
+            resolved.profile,
+        );
+        let p = pending.entry(group).or_default();
+        if !p.configs.is_empty() && p.configs.len() + missing > batch_size {
+            emit(resolved.task, std::mem::take(p))?;
+        }
         for s in 0..seeds {
             let run = first + s;
             if done.contains(run) {
                 continue;
             }
-            let p = &mut pending[resolved.task];
             p.configs.push(RunConfig {
                 params: resolved.params,
                 seed: sweep.master_seed,
@@ -231,7 +250,7 @@ fn plan(
             }
         }
     }
-    for (task, p) in pending.into_iter().enumerate() {
+    for ((task, _, _), p) in pending {
         if !p.configs.is_empty() {
             emit(task, p)?;
         }
@@ -298,7 +317,7 @@ pub fn execute(
         );
     }
     let bar = progress_bar(steps_to_run, options.quiet);
-    let metadata = metadata(sweep);
+    let metadata = metadata(sweep, shard);
     let mut ran = 0u64;
     let mut parts_written = 0usize;
     let set_message = |ran: u64| {
