@@ -10,7 +10,7 @@ use std::process::Output;
 
 use assert_cmd::Command;
 use mbmf::analysis::compare;
-use mbmf::analysis::dataset::{self, Column, Table, Value};
+use mbmf::analysis::dataset::{self, Table, Value};
 use mbmf::analysis::min_budget;
 use mbmf::analysis::pareto::{Direction, dominates};
 use mbmf::batch::RunConfig;
@@ -99,10 +99,13 @@ fn floats(table: &Table, name: &str) -> Vec<Option<f64>> {
 }
 
 fn bools(table: &Table, name: &str) -> Vec<bool> {
-    match table.column(name).unwrap() {
-        Column::Bool(v) => v.iter().map(|b| b.unwrap()).collect(),
-        other => panic!("{name} holds {}", other.type_name()),
-    }
+    let column = table.column(name).unwrap();
+    (0..column.len())
+        .map(|i| match column.value(i) {
+            Value::Bool(b) => b,
+            other => panic!("{name} holds {other}, not a boolean"),
+        })
+        .collect()
 }
 
 /// Whether some line of `text` has exactly the whitespace-separated cells of `row`.
