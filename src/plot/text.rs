@@ -1,0 +1,192 @@
+//! The text-measuring, text-drawing backend wrapper (its own module because `plotters`'
+//! `Color` and `plotters_backend`'s `BackendStyle` both name a `stroke_width` method).
+
+use ab_glyph::{Font, FontRef, PxScale, ScaleFont, point};
+use plotters::prelude::DrawingBackend;
+use plotters::style::text_anchor::{HPos, VPos};
+use plotters_backend::{
+    BackendColor, BackendCoord, BackendStyle, BackendTextStyle, DrawingErrorKind,
+};
+
+use super::{TOP_BASELINE, X_HEIGHT};
+
+/// A drawing backend that measures text with the embedded font and, if `raster`, draws text
+/// itself; everything else goes to `inner` unchanged (so SVG keeps its native shapes and text).
+pub(super) struct Typeset<B> {
+    pub(super) inner: B,
+    pub(super) font: &'static FontRef<'static>,
+    pub(super) raster: bool,
+}
+
+/// Glyphs of one line of text laid out from the origin along the baseline, and its width.
+pub(super) fn layout_glyphs(
+    font: &FontRef<'static>,
+    text: &str,
+    size: f64,
+) -> (Vec<ab_glyph::Glyph>, f32) {
+    let em_px = (size / 1.24) as f32;
+    // ab_glyph scales by the font's height (ascent - descent), not by its em.
+    let units_per_em = font.units_per_em().unwrap_or(2048.0);
+    let scale = PxScale::from(em_px * font.height_unscaled() / units_per_em);
+    let scaled = font.as_scaled(scale);
+    let mut glyphs = Vec::with_capacity(text.len());
+    let mut caret = 0.0;
+    let mut previous = None;
+    for c in text.chars() {
+        let id = scaled.glyph_id(c);
+        if let Some(previous) = previous {
+            caret += scaled.kern(previous, id);
+        }
+        glyphs.push(id.with_scale_and_position(scale, point(caret, 0.0)));
+        caret += scaled.h_advance(id);
+        previous = Some(id);
+    }
+    (glyphs, caret)
+}
+
+impl<B: DrawingBackend> DrawingBackend for Typeset<B> {
+    type ErrorType = B::ErrorType;
+
+    fn get_size(&self) -> (u32, u32) {
+        self.inner.get_size()
+    }
+
+    fn ensure_prepared(&mut self) -> Result<(), DrawingErrorKind<B::ErrorType>> {
+        self.inner.ensure_prepared()
+    }
+
+    fn present(&mut self) -> Result<(), DrawingErrorKind<B::ErrorType>> {
+        self.inner.present()
+    }
+
+    fn draw_pixel(
+        &mut self,
+        point: BackendCoord,
+        color: BackendColor,
+    ) -> Result<(), DrawingErrorKind<B::ErrorType>> {
+        self.inner.draw_pixel(point, color)
+    }
+
+    fn draw_line<S: BackendStyle>(
+        &mut self,
+        from: BackendCoord,
+        to: BackendCoord,
+        style: &S,
+    ) -> Result<(), DrawingErrorKind<B::ErrorType>> {
+        self.inner.draw_line(from, to, style)
+    }
+
+    fn draw_rect<S: BackendStyle>(
+        &mut self,
+        upper_left: BackendCoord,
+        bottom_right: BackendCoord,
+        style: &S,
+        fill: bool,
+    ) -> Result<(), DrawingErrorKind<B::ErrorType>> {
+        self.inner.draw_rect(upper_left, bottom_right, style, fill)
+    }
+
+    fn draw_path<S: BackendStyle, I: IntoIterator<Item = BackendCoord>>(
+        &mut self,
+        path: I,
+        style: &S,
+    ) -> Result<(), DrawingErrorKind<B::ErrorType>> {
+        self.inner.draw_path(path, style)
+    }
+
+    fn draw_circle<S: BackendStyle>(
+        &mut self,
+        center: BackendCoord,
+        radius: u32,
+        style: &S,
+        fill: bool,
+    ) -> Result<(), DrawingErrorKind<B::ErrorType>> {
+        self.inner.draw_circle(center, radius, style, fill)
+    }
+
+    fn fill_polygon<S: BackendStyle, I: IntoIterator<Item = BackendCoord>>(
+        &mut self,
+        vert: I,
+        style: &S,
+    ) -> Result<(), DrawingErrorKind<B::ErrorType>> {
+        self.inner.fill_polygon(vert, style)
+    }
+
+    fn blit_bitmap(
+        &mut self,
+        pos: BackendCoord,
+        size: (u32, u32),
+        src: &[u8],
+    ) -> Result<(), DrawingErrorKind<B::ErrorType>> {
+        self.inner.blit_bitmap(pos, size, src)
+    }
+
+    fn estimate_text_size<S: BackendTextStyle>(
+        &self,
+        text: &str,
+        style: &S,
+    ) -> Result<(u32, u32), DrawingErrorKind<B::ErrorType>> {
+        let (_, width) = layout_glyphs(self.font, text, style.size());
+        let em_px = style.size() / 1.24;
+        let height = f64::from(self.font.height_unscaled())
+            / f64::from(self.font.units_per_em().unwrap_or(2048.0))
+            * em_px;
+        Ok((width.ceil() as u32, height.ceil() as u32))
+    }
+
+    fn draw_text<S: BackendTextStyle>(
+        &mut self,
+        text: &str,
+        style: &S,
+        pos: BackendCoord,
+    ) -> Result<(), DrawingErrorKind<B::ErrorType>> {
+        let colour = style.color();
+        if !self.raster {
+            return self.inner.draw_text(text, style, pos);
+        }
+        if colour.alpha == 0.0 {
+            return Ok(());
+        }
+        let (glyphs, width) = layout_glyphs(self.font, text, style.size());
+        let em_px = (style.size() / 1.24) as f32;
+        // Anchor as plotters' SVG backend does (text-anchor and dy), so both files agree.
+        let dx = match style.anchor().h_pos {
+            HPos::Left => 0.0,
+            HPos::Center => -width / 2.0,
+            HPos::Right => -width,
+        };
+        let baseline = match style.anchor().v_pos {
+            VPos::Top => TOP_BASELINE * em_px,
+            VPos::Center => 0.5 * X_HEIGHT * em_px,
+            VPos::Bottom => -0.5 * X_HEIGHT * em_px,
+        };
+        let transform = style.transform();
+        let (w, h) = self.inner.get_size();
+        let mut pixels: Vec<(BackendCoord, f32)> = Vec::new();
+        for mut glyph in glyphs {
+            glyph.position.x += dx;
+            glyph.position.y += baseline;
+            if let Some(outlined) = self.font.outline_glyph(glyph) {
+                let bounds = outlined.px_bounds();
+                outlined.draw(|x, y, coverage| {
+                    if coverage > 0.0 {
+                        let tx = bounds.min.x as i32 + x as i32;
+                        let ty = bounds.min.y as i32 + y as i32;
+                        pixels.push((transform.transform(tx, ty), coverage));
+                    }
+                });
+            }
+        }
+        for ((x, y), coverage) in pixels {
+            let (x, y) = (pos.0 + x, pos.1 + y);
+            if x >= 0 && y >= 0 && (x as u32) < w && (y as u32) < h {
+                let color = BackendColor {
+                    alpha: colour.alpha * f64::from(coverage.min(1.0)),
+                    rgb: colour.rgb,
+                };
+                self.inner.draw_pixel((x, y), color)?;
+            }
+        }
+        Ok(())
+    }
+}
