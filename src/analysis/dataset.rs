@@ -1074,6 +1074,55 @@ mod tests {
     }
 
     #[test]
+    fn groups_come_in_key_order_with_rows_in_table_order() {
+        let mut t = Table::new("test");
+        let controllers = [Some("mf"), Some("ec"), None, Some("mf"), Some("ec")];
+        t.push("c", Column::texts(controllers));
+        t.push("k", Column::floats([9.0, 3.0, 1.0, 9.0, 1.0].map(Some)));
+        let keys = ["c".to_owned(), "k".to_owned()];
+        let groups: Vec<(String, Vec<usize>)> = group_rows(&t, &keys)
+            .unwrap()
+            .into_iter()
+            .map(|(key, rows)| (format!("{} {}", key[0], key[1]), rows))
+            .collect();
+        let expected = [("null 1", vec![2]), ("ec 1", vec![4]), ("ec 3", vec![1])];
+        assert_eq!(groups[..3], expected.map(|(k, r)| (k.to_owned(), r)));
+        assert_eq!(groups[3], ("mf 9".to_owned(), vec![0, 3]));
+        assert!(varying_columns(&t, &keys, &[0, 3]).is_empty());
+        assert_eq!(varying_columns(&t, &keys, &[1, 4]), ["k"]);
+    }
+
+    #[test]
+    fn files_disagreeing_on_integer_signedness_read_as_signed() {
+        let part = |column: Column, file: &str| {
+            let mut t = Table::new(file);
+            t.push("budget", column);
+            (t, PathBuf::from(file))
+        };
+        let signed = |v: Vec<Option<i64>>| Column(Arc::new(Int64Array::from(v)));
+        let parts = [
+            part(Column::uints([Some(5)]), "a"),
+            part(signed(vec![Some(-1), None]), "b"),
+        ];
+        let t = Table::concat("both".to_owned(), &parts).unwrap();
+        let budget = t.column("budget").unwrap();
+        assert_eq!(*budget.array().data_type(), DataType::Int64);
+        let values: Vec<Value> = (0..t.len()).map(|i| budget.value(i)).collect();
+        assert_eq!(values, [Value::Int(5), Value::Int(-1), Value::Null]);
+        assert_eq!(
+            budget.type_name(),
+            parts[0].0.column("budget").unwrap().type_name()
+        );
+        // A u64 beyond i64 cannot be widened: an error naming the file, never a silent null.
+        let parts = [
+            part(Column::uints([Some(u64::MAX)]), "a.parquet"),
+            part(signed(vec![Some(1)]), "b.parquet"),
+        ];
+        let e = Table::concat("both".to_owned(), &parts).unwrap_err();
+        assert!(e.to_string().starts_with("a.parquet: "), "{e}");
+    }
+
+    #[test]
     fn filters_compare_numbers_as_numbers_and_report_the_values_present() {
         let mut t = Table::new("test");
         t.push("kappa", Column::floats([Some(9.0), Some(3.0), Some(9.0)]));
