@@ -14,7 +14,8 @@
 //! - Every file is written next to its target as `<name>.tmp.svg` / `<name>.tmp.png` and then
 //!   renamed, so a killed process never leaves a truncated figure. Missing parent folders are
 //!   created.
-//! - Text is measured and (in PNGs) rasterised with DejaVu Sans, embedded in the binary
+//! - The SVG is drawn once; the PNG is that SVG rendered by `resvg`, so the two always agree.
+//!   Text is measured, and set in PNGs, with DejaVu Sans, embedded in the binary
 //!   (`assets/DejaVuSans.ttf`, Bitstream Vera licence, see `assets/LICENSE-DejaVu.txt`). SVG
 //!   files hold `<text>` elements in the viewer's `sans-serif` font at the same size.
 //!
@@ -23,10 +24,10 @@
 //! by every chart), `line`, `bar` and `scatter` (one chart kind each) and `render` (the
 //! SVG and PNG files).
 //!
-//! NOTE: `plotters`' own `ab_glyph` text drawing drops each glyph's side bearing and rounds
-//! baselines per glyph, which makes small text ragged ("T otal", raised full stops). Both
-//! backends are therefore wrapped in `Typeset`, which measures text with the embedded font for
-//! layout and, for PNGs, rasterises it with `ab_glyph` directly, placed as the SVG text is.
+//! NOTE: `plotters`' own `ab_glyph` text measure takes the font size for the line height,
+//! not for the em its SVG backend writes (`size / 1.24`), so labels would be laid out for text
+//! about 6% too wide. The SVG backend is therefore wrapped in `Typeset`, which measures text
+//! with the embedded font at the size the SVG declares.
 
 use std::fs::{self, File};
 use std::io::{self, Write};
@@ -72,6 +73,8 @@ pub const HEIGHT: u32 = 600;
 static FONT_BYTES: &[u8] = include_bytes!("../assets/DejaVuSans.ttf");
 /// The family name every text style here uses (and the SVG files name).
 const FONT: &str = "sans-serif";
+/// The embedded font's family name, which resvg resolves `sans-serif` to.
+const FONT_FAMILY: &str = "DejaVu Sans";
 
 /// `plotters` font size for an em of `px` pixels: its SVG backend writes `size / 1.24`.
 const fn em(px: f64) -> f64 {
@@ -83,10 +86,6 @@ const TICK_SIZE: f64 = em(16.0);
 const LEGEND_SIZE: f64 = em(16.0);
 const NOTE_SIZE: f64 = em(16.0);
 const POINT_LABEL_SIZE: f64 = em(14.0);
-/// DejaVu Sans x-height in ems, to centre text vertically as SVG viewers do (`0.5ex`).
-const X_HEIGHT: f32 = 0.547;
-/// Baseline below the anchor for top-anchored text, as plotters' SVG backend writes it.
-const TOP_BASELINE: f32 = 0.76;
 
 const GRID: RGBColor = RGBColor(225, 225, 225);
 const AXIS: RGBColor = RGBColor(60, 60, 60);

@@ -3,19 +3,15 @@
 
 use ab_glyph::{Font, FontRef, PxScale, ScaleFont, point};
 use plotters::prelude::DrawingBackend;
-use plotters::style::text_anchor::{HPos, VPos};
 use plotters_backend::{
     BackendColor, BackendCoord, BackendStyle, BackendTextStyle, DrawingErrorKind,
 };
 
-use super::{TOP_BASELINE, X_HEIGHT};
-
-/// A drawing backend that measures text with the embedded font and, if `raster`, draws text
-/// itself; everything else goes to `inner` unchanged (so SVG keeps its native shapes and text).
+/// A drawing backend that measures text with the embedded font; everything, text included, is
+/// drawn by `inner` unchanged (so SVG keeps its native shapes and text).
 pub(super) struct Typeset<B> {
     pub(super) inner: B,
     pub(super) font: &'static FontRef<'static>,
-    pub(super) raster: bool,
 }
 
 /// Glyphs of one line of text laid out from the origin along the baseline, and its width.
@@ -140,53 +136,6 @@ impl<B: DrawingBackend> DrawingBackend for Typeset<B> {
         style: &S,
         pos: BackendCoord,
     ) -> Result<(), DrawingErrorKind<B::ErrorType>> {
-        let colour = style.color();
-        if !self.raster {
-            return self.inner.draw_text(text, style, pos);
-        }
-        if colour.alpha == 0.0 {
-            return Ok(());
-        }
-        let (glyphs, width) = layout_glyphs(self.font, text, style.size());
-        let em_px = (style.size() / 1.24) as f32;
-        // Anchor as plotters' SVG backend does (text-anchor and dy), so both files agree.
-        let dx = match style.anchor().h_pos {
-            HPos::Left => 0.0,
-            HPos::Center => -width / 2.0,
-            HPos::Right => -width,
-        };
-        let baseline = match style.anchor().v_pos {
-            VPos::Top => TOP_BASELINE * em_px,
-            VPos::Center => 0.5 * X_HEIGHT * em_px,
-            VPos::Bottom => -0.5 * X_HEIGHT * em_px,
-        };
-        let transform = style.transform();
-        let (w, h) = self.inner.get_size();
-        let mut pixels: Vec<(BackendCoord, f32)> = Vec::new();
-        for mut glyph in glyphs {
-            glyph.position.x += dx;
-            glyph.position.y += baseline;
-            if let Some(outlined) = self.font.outline_glyph(glyph) {
-                let bounds = outlined.px_bounds();
-                outlined.draw(|x, y, coverage| {
-                    if coverage > 0.0 {
-                        let tx = bounds.min.x as i32 + x as i32;
-                        let ty = bounds.min.y as i32 + y as i32;
-                        pixels.push((transform.transform(tx, ty), coverage));
-                    }
-                });
-            }
-        }
-        for ((x, y), coverage) in pixels {
-            let (x, y) = (pos.0 + x, pos.1 + y);
-            if x >= 0 && y >= 0 && (x as u32) < w && (y as u32) < h {
-                let color = BackendColor {
-                    alpha: colour.alpha * f64::from(coverage.min(1.0)),
-                    rgb: colour.rgb,
-                };
-                self.inner.draw_pixel((x, y), color)?;
-            }
-        }
-        Ok(())
+        self.inner.draw_text(text, style, pos)
     }
 }
