@@ -85,19 +85,10 @@ impl Figure for LineFigure<'_> {
         let labels: Vec<&str> = self.series.iter().map(|s| s.label.as_str()).collect();
         let legend_w = legend_width(&area, &labels)?;
         let (plot_area, legend_area) = split_for_legend(&area, legend_w);
-        let y_ticks = 8;
-        let y_area = y_label_area_width(&plot_area, &self.y, y_ticks)?;
-        let plot_width = plot_area.dim_in_pixel().0.saturating_sub(y_area + 30);
-        let x_ticks = x_tick_count(&plot_area, &self.x, plot_width)?;
-        let mut chart = ChartBuilder::on(&plot_area)
-            .margin(14)
-            .x_label_area_size(64)
-            .y_label_area_size(y_area)
-            .build_cartesian_2d(self.x, self.y)?;
-        draw_mesh(
-            &mut chart,
-            x_ticks,
-            y_ticks,
+        let mut chart = xy_chart(
+            &plot_area,
+            self.x,
+            self.y,
             &self.chart.x_label,
             &self.chart.y_label,
         )?;

@@ -225,6 +225,31 @@ pub(super) fn split_for_legend<DB: DrawingBackend>(
     area.split_horizontally(width.saturating_sub(legend_width))
 }
 
+/// A chart on two [`Axis`] scales.
+pub(super) type XyChart<'a, DB> = ChartContext<'a, DB, Cartesian2d<Axis, Axis>>;
+
+/// The chart of a line or scatter panel, its mesh drawn: the y label area sized for 8 ticks,
+/// as many x ticks as fit side by side.
+pub(super) fn xy_chart<'a, DB: DrawingBackend>(
+    plot_area: &'a DrawingArea<DB, Shift>,
+    x: Axis,
+    y: Axis,
+    x_label: &str,
+    y_label: &str,
+) -> Result<XyChart<'a, DB>, DrawingAreaErrorKind<DB::ErrorType>> {
+    let y_ticks = 8;
+    let y_area = y_label_area_width(plot_area, &y, y_ticks)?;
+    let plot_width = plot_area.dim_in_pixel().0.saturating_sub(y_area + 30);
+    let x_ticks = x_tick_count(plot_area, &x, plot_width)?;
+    let mut chart = ChartBuilder::on(plot_area)
+        .margin(14)
+        .x_label_area_size(64)
+        .y_label_area_size(y_area)
+        .build_cartesian_2d(x, y)?;
+    draw_mesh(&mut chart, x_ticks, y_ticks, x_label, y_label)?;
+    Ok(chart)
+}
+
 /// Configures and draws the mesh (grid, ticks, tick labels, axis texts).
 pub(super) fn draw_mesh<DB: DrawingBackend>(
     chart: &mut ChartContext<'_, DB, Cartesian2d<Axis, Axis>>,
