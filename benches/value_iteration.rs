@@ -41,10 +41,8 @@ fn learn(spec: &Spec) -> Learned {
     let mut model = OwnedModel::new(spec, window_cap);
     let mut scratch = vec![0.0; 2 * n_a];
     let mut rng = run_rng(common::SEED, 0);
-    let mut cursor = Cursor {
-        state: mbmf::batch::initial_state(spec, &mut rng),
-        ..Cursor::default()
-    };
+    let state = mbmf::batch::initial_state(spec, &mut rng);
+    let mut cursor = Cursor::start(spec, &params, state);
     let mut stats = RunStats::default();
     let mut series = vec![Checkpoint::default(); checkpoint_count(&params)];
     let total = u64::from(params.babbling) + u64::from(params.steps);
@@ -64,6 +62,7 @@ fn learn(spec: &Spec) -> Learned {
             cursor: &mut cursor,
             stats: &mut stats,
             series: &mut series,
+            plan: None,
         };
         while view.cursor.t < total {
             step(spec, &params, window_cap, &mut view);
@@ -89,9 +88,9 @@ fn value_iteration(c: &mut Criterion) {
             let call = |model: &mut OwnedModel, q: &mut Vec<f64>| {
                 let mut view = model.view();
                 if warm {
-                    view.value_iteration_cached(&spec, q, p.gamma_mb, p.vi_epsilon, p.vi_max_sweeps)
+                    view.value_iteration_cached(q, p.gamma_mb, p.vi_epsilon, p.vi_max_sweeps)
                 } else {
-                    view.value_iteration(&spec, q, p.gamma_mb, p.vi_epsilon, p.vi_max_sweeps)
+                    view.value_iteration(q, p.gamma_mb, p.vi_epsilon, p.vi_max_sweeps)
                 }
             };
             // One probe call gives the work per call, so rates read as terms per second.

@@ -4,6 +4,8 @@
 
 use thiserror::Error;
 
+use crate::env::tidy::Boxes;
+
 /// A parameter value outside what the model accepts.
 #[derive(Debug, Error, PartialEq)]
 pub enum ConfigError {
@@ -46,6 +48,12 @@ pub enum ConfigError {
         /// The interaction type asked for.
         interaction: String,
     },
+    /// A schedule of changes that cannot be read or does not fit the task (SPEC 10).
+    #[error(transparent)]
+    Schedule(#[from] crate::schedule::ScheduleError),
+    /// More distinct schedules in one batch than the engine indexes.
+    #[error("too many distinct schedules in one batch (at most 65534): split the runs")]
+    TooManySchedules,
 }
 
 /// `name()` of each parameter enum: the value's name on the command line, in sweep files and in
@@ -70,7 +78,10 @@ names! {
         Congratulation => "congratulation",
         Takeover => "takeover",
         Punishment => "punishment",
+        Nuisance => "nuisance",
     }
+    RewardSource { Environment => "environment", Human => "human" }
+    CongratulationEffect { Bias => "bias", Reward => "reward" }
     Profile {
         None => "none",
         PaperCongratulation => "paper-congratulation",
@@ -78,6 +89,8 @@ names! {
         Generous => "generous",
         Stingy => "stingy",
         StopsEarly => "stops-early",
+        RewardsThenLeaves => "rewards-then-leaves",
+        Nuisance => "nuisance",
         Custom => "custom",
     }
 }
@@ -152,6 +165,31 @@ pub enum Interaction {
     Takeover,
     /// Penalty `zeta` in the softmax of an error just executed (the paper's future work).
     Punishment,
+    /// The human undoes a relevant action: the cube just put away goes back on the table
+    /// (SPEC 11.2, the paper's future work).
+    Nuisance,
+}
+
+/// Who brings the goal's reward (SPEC 11.1).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, clap::ValueEnum)]
+pub enum RewardSource {
+    /// The environment, at every arrival in the goal (SPEC 2).
+    #[default]
+    Environment,
+    /// The human only: an attentive human with budget left gives the goal's reward at an
+    /// arrival in the goal, spending one unit of budget; otherwise the arrival gives 0.
+    Human,
+}
+
+/// How a congratulation acts (SPEC 11.3).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, clap::ValueEnum)]
+pub enum CongratulationEffect {
+    /// On the choice: zeta * G(s, a) in the softmax (Eq. 8, the paper).
+    #[default]
+    Bias,
+    /// On the learning: the congratulated transition is learned with reward r + zeta by both
+    /// experts (reward shaping); no bias in the softmax.
+    Reward,
 }
 
 /// Named presets of the human's behaviour (SPEC 5), sweepable as a whole.
@@ -169,6 +207,11 @@ pub enum Profile {
     Stingy,
     /// Congratulation with a budget of 10, then silence.
     StopsEarly,
+    /// Only the human brings reward (SPEC 11.1), 300 times (never forgetting), then leaves:
+    /// no interaction type, reward source `human`, budget 300, forget 0.
+    RewardsThenLeaves,
+    /// A nuisance (SPEC 11.2) with a budget of 300.
+    Nuisance,
     /// Whatever the individual flags say.
     #[value(skip)]
     Custom,
@@ -200,13 +243,15 @@ impl Default for HumanParams {
 
 impl Profile {
     /// All profiles with a fixed meaning (not `custom`).
-    pub const PRESETS: [Profile; 6] = [
+    pub const PRESETS: [Profile; 8] = [
         Profile::None,
         Profile::PaperCongratulation,
         Profile::PaperTakeover,
         Profile::Generous,
         Profile::Stingy,
         Profile::StopsEarly,
+        Profile::RewardsThenLeaves,
+        Profile::Nuisance,
     ];
 
     /// The human this profile describes for `controller`, or `None` for `custom`.
@@ -242,8 +287,27 @@ impl Profile {
                 budget: 10,
                 ..base
             },
+            Profile::RewardsThenLeaves => HumanParams {
+                budget: 300,
+                forget_prob: 0.0,
+                ..base
+            },
+            Profile::Nuisance => HumanParams {
+                interaction: Interaction::Nuisance,
+                budget: 300,
+                ..base
+            },
             Profile::Custom => return None,
         })
+    }
+
+    /// The reward source this profile implies, or `None` for `custom` (SPEC 11.1).
+    pub fn reward_source(self) -> Option<RewardSource> {
+        match self {
+            Profile::Custom => None,
+            Profile::RewardsThenLeaves => Some(RewardSource::Human),
+            _ => Some(RewardSource::Environment),
+        }
     }
 }
 
@@ -257,7 +321,7 @@ pub fn paper_budget(controller: Controller, interaction: Interaction) -> u32 {
         (Interaction::Congratulation | Interaction::Punishment, _) => 30,
         (Interaction::Takeover, Controller::Mf) => 200,
         (Interaction::Takeover, _) => 50,
-        (Interaction::None, _) => 0,
+        (Interaction::None | Interaction::Nuisance, _) => 0,
     }
 }
 
@@ -303,6 +367,12 @@ pub struct Params {
     pub babbling: u32,
     /// A checkpoint row is written every this many steps (and at the last step). Default 100.
     pub checkpoint: u32,
+    /// Who brings the goal's reward (SPEC 11.1). Default `environment`.
+    pub reward_source: RewardSource,
+    /// How a congratulation acts (SPEC 11.3). Default `bias` (Eq. 8).
+    pub congratulation_effect: CongratulationEffect,
+    /// `tidy1`'s box assignment for the whole run (SPEC 10). Default `rgb`.
+    pub boxes: Boxes,
 }
 
 impl Default for Params {
@@ -327,6 +397,9 @@ impl Default for Params {
             steps: 10_000,
             babbling: 1_000,
             checkpoint: 100,
+            reward_source: RewardSource::Environment,
+            congratulation_effect: CongratulationEffect::Bias,
+            boxes: Boxes::RGB,
         }
     }
 }
@@ -461,7 +534,11 @@ impl Params {
     ///
     /// [`validate`]: Params::validate
     pub fn validate_for_reward(&self, goal_reward: f64) -> Result<(), ConfigError> {
-        let reward = goal_reward.abs();
+        let mut reward = goal_reward.abs();
+        if self.congratulation_effect == CongratulationEffect::Reward {
+            // A congratulated transition is learned with r + zeta (SPEC 11.3).
+            reward += self.human.zeta;
+        }
         let discounts = [
             ("gamma_mf", self.gamma_mf, self.controller.runs_mf()),
             ("gamma_mb", self.gamma_mb, self.controller.runs_mb()),

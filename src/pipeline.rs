@@ -12,6 +12,7 @@ use crate::batch::{Batch, RunConfig};
 use crate::env::Spec;
 use crate::output::{self, OutputError, ParquetSink};
 use crate::params::{ConfigError, Params};
+use crate::schedule::Schedule;
 
 /// Steps every run advances between two progress updates.
 const PROGRESS_STRIDE: u64 = 2_000;
@@ -31,11 +32,31 @@ pub fn simulate<E: From<ConfigError>>(
     spec: &Arc<Spec>,
     configs: &[RunConfig],
     batch_size: usize,
+    progress: impl FnMut(u64),
+    on_batch: impl FnMut(&Batch) -> Result<(), E>,
+) -> Result<(), E> {
+    simulate_with_schedules(spec, configs, &[], &[], batch_size, progress, on_batch)
+}
+
+/// [`simulate`] where run `i` follows `schedules[run_schedule[i]]` (SPEC 10; an empty
+/// `run_schedule` means no changes).
+pub fn simulate_with_schedules<E: From<ConfigError>>(
+    spec: &Arc<Spec>,
+    configs: &[RunConfig],
+    schedules: &[Schedule],
+    run_schedule: &[usize],
+    batch_size: usize,
     mut progress: impl FnMut(u64),
     mut on_batch: impl FnMut(&Batch) -> Result<(), E>,
 ) -> Result<(), E> {
-    for chunk in configs.chunks(batch_size.max(1)) {
-        let mut batch = Batch::new(Arc::clone(spec), chunk.to_vec())?;
+    let size = batch_size.max(1);
+    for (k, chunk) in configs.chunks(size).enumerate() {
+        let which = if run_schedule.is_empty() {
+            &[][..]
+        } else {
+            &run_schedule[k * size..k * size + chunk.len()]
+        };
+        let mut batch = Batch::with_schedules(Arc::clone(spec), chunk.to_vec(), schedules, which)?;
         let longest = chunk
             .iter()
             .map(|c| u64::from(c.params.babbling) + u64::from(c.params.steps))
@@ -68,11 +89,12 @@ pub struct Tables {
 }
 
 impl Tables {
-    /// Prepares `dir/runs.parquet` and `dir/series.parquet`, both carrying `metadata`.
-    pub fn new(dir: &Path, metadata: Vec<(String, String)>) -> Tables {
+    /// Prepares `dir/runs.parquet` and `dir/series.parquet`, each carrying its metadata
+    /// ([`output::pair_metadata`]).
+    pub fn new(dir: &Path, [runs, series]: [Vec<(String, String)>; 2]) -> Tables {
         Tables {
-            runs: ParquetSink::new(&dir.join("runs.parquet"), metadata.clone()),
-            series: ParquetSink::new(&dir.join("series.parquet"), metadata),
+            runs: ParquetSink::new(&dir.join("runs.parquet"), runs),
+            series: ParquetSink::new(&dir.join("series.parquet"), series),
         }
     }
 

@@ -342,11 +342,7 @@ fn simulate_all(
     let data = args.out.join("data");
     std::fs::create_dir_all(&data)
         .with_context(|| format!("cannot create output folder {}", data.display()))?;
-    let metadata = output::metadata([
-        ("mbmf_command", output::command_line()),
-        ("master_seed", args.seed.to_string()),
-    ]);
-    let mut tables = pipeline::Tables::new(&data, metadata);
+    let mut tables = pipeline::Tables::new(&data, output::pair_metadata(args.seed));
     let mut outcomes: Vec<Outcome> = conditions
         .iter()
         .map(|&condition| Outcome {

@@ -10,7 +10,7 @@ use std::process::Output;
 
 use assert_cmd::Command;
 use mbmf::analysis::compare;
-use mbmf::analysis::dataset::{self, Column, Table, Value};
+use mbmf::analysis::dataset::{self, Table, Value};
 use mbmf::analysis::min_budget;
 use mbmf::analysis::pareto::{Direction, dominates};
 use mbmf::batch::RunConfig;
@@ -99,10 +99,13 @@ fn floats(table: &Table, name: &str) -> Vec<Option<f64>> {
 }
 
 fn bools(table: &Table, name: &str) -> Vec<bool> {
-    match table.column(name).unwrap() {
-        Column::Bool(v) => v.iter().map(|b| b.unwrap()).collect(),
-        other => panic!("{name} holds {}", other.type_name()),
-    }
+    let column = table.column(name).unwrap();
+    (0..column.len())
+        .map(|i| match column.value(i) {
+            Value::Bool(b) => b,
+            other => panic!("{name} holds {other}, not a boolean"),
+        })
+        .collect()
 }
 
 /// Whether some line of `text` has exactly the whitespace-separated cells of `row`.
@@ -153,7 +156,7 @@ fn pareto_front_holds_exactly_the_non_dominated_configurations_and_the_knee() {
     write_runs(&dir.path().join("runs.parquet"), &front_runs());
     let stdout = run_ok(&["pareto", dir.path().to_str().unwrap()]);
 
-    let table = dataset::read_parquet_file(&dir.path().join("pareto.parquet")).unwrap();
+    let table = dataset::read_parquet_file(&dir.path().join("analysis/pareto.parquet")).unwrap();
     assert_eq!(table.len(), 7, "one row per configuration");
     let kappa = floats(&table, "kappa_coeff");
     let reward = floats(&table, "total_reward_mean");
@@ -212,10 +215,10 @@ fn pareto_front_holds_exactly_the_non_dominated_configurations_and_the_knee() {
     );
     assert!(stdout.contains("1 configurations lack a mean"), "{stdout}");
     for ext in ["svg", "png"] {
-        let figure = dir.path().join(format!("pareto.{ext}"));
+        let figure = dir.path().join(format!("analysis/pareto.{ext}"));
         assert!(std::fs::metadata(&figure).unwrap().len() > 1000, "{ext}");
     }
-    let svg = std::fs::read_to_string(dir.path().join("pareto.svg")).unwrap();
+    let svg = std::fs::read_to_string(dir.path().join("analysis/pareto.svg")).unwrap();
     assert!(
         svg.contains("knee") && svg.contains("kappa_coeff=2"),
         "knee and labels drawn"
@@ -274,7 +277,7 @@ fn pareto_confidence_intervals_match_a_hand_computation() {
     let dir = tempfile::tempdir().unwrap();
     write_runs(&dir.path().join("runs.parquet"), &runs);
     run_ok(&["pareto", dir.path().to_str().unwrap(), "--no-plot"]);
-    let table = dataset::read_parquet_file(&dir.path().join("pareto.parquet")).unwrap();
+    let table = dataset::read_parquet_file(&dir.path().join("analysis/pareto.parquet")).unwrap();
     let controller = table.column("controller").unwrap();
     let mf = (0..table.len())
         .find(|&i| controller.value(i) == Value::Str("mf".into()))
@@ -335,7 +338,7 @@ fn pareto_reads_real_runs_in_the_run_and_the_sweep_layouts_alike() {
         stdout.contains("controller") && stdout.contains("kappa_coeff"),
         "the varying parameters lead the table: {stdout}"
     );
-    let table = dataset::read_parquet_file(&sweep.join("pareto.parquet")).unwrap();
+    let table = dataset::read_parquet_file(&sweep.join("analysis/pareto.parquet")).unwrap();
     assert_eq!(table.len(), 4);
     assert!(floats(&table, "n").iter().all(|n| *n == Some(3.0)));
     assert!(bools(&table, "knee").iter().filter(|k| **k).count() == 1);
@@ -343,7 +346,7 @@ fn pareto_reads_real_runs_in_the_run_and_the_sweep_layouts_alike() {
     // The run layout reads the same runs: one folder of two kappas equals half the sweep.
     let single = run_ok(&["pareto", root.join("k3").to_str().unwrap(), "--no-plot"]);
     assert!(single.contains("6 runs in 2 configurations"), "{single}");
-    // Rerunning on the sweep ignores the analysis outputs now beside the parts.
+    // Rerunning on the sweep reads the runs only: the outputs are in their own folder.
     let again = run_ok(&["pareto", sweep.join("runs").to_str().unwrap(), "--no-plot"]);
     let again2 = run_ok(&["pareto", sweep.to_str().unwrap(), "--no-plot"]);
     assert!(again.contains("12 runs in 4 configurations"), "{again}");
@@ -645,7 +648,8 @@ fn min_budget_prints_the_table_and_writes_parquet() {
         "{stdout}"
     );
 
-    let table = dataset::read_parquet_file(&dir.path().join("min_budget.parquet")).unwrap();
+    let table =
+        dataset::read_parquet_file(&dir.path().join("analysis/min_budget.parquet")).unwrap();
     assert_eq!(table.len(), 8, "one row per group and budget");
     let chosen = bools(&table, "chosen");
     let budget = floats(&table, "budget");
@@ -749,7 +753,7 @@ fn min_budget_runs_on_datasets_of_the_real_binary() {
     }
     let stdout = run_ok(&["min-budget", sweep.to_str().unwrap()]);
     assert!(stdout.contains("mf          takeover"), "{stdout}");
-    let table = dataset::read_parquet_file(&sweep.join("min_budget.parquet")).unwrap();
+    let table = dataset::read_parquet_file(&sweep.join("analysis/min_budget.parquet")).unwrap();
     assert_eq!(floats(&table, "budget"), [Some(0.0), Some(5.0)]);
     assert_eq!(floats(&table, "n"), [Some(3.0), Some(3.0)]);
 }
@@ -768,7 +772,7 @@ fn errors_name_the_input_and_what_would_be_accepted() {
     let e = run_usage_error(&["stats", data, "--by", "kapa", "--metric", "total_reward"]);
     assert!(
         e.contains("has no column 'kapa' (did you mean 'kappa_coeff'?)")
-            && e.contains("Available columns: run_index, seed, task"),
+            && e.contains("Available columns: run_index, master_seed, task"),
         "{e}"
     );
     let e = run_usage_error(&[
@@ -854,7 +858,7 @@ fn the_verbs_read_a_dataset_written_by_mbmf_sweep() {
 
     let stdout = run_ok(&["pareto", d, "--no-plot"]);
     assert!(stdout.contains("12 runs in 4 configurations"), "{stdout}");
-    let table = dataset::read_parquet_file(&out.join("pareto.parquet")).unwrap();
+    let table = dataset::read_parquet_file(&out.join("analysis/pareto.parquet")).unwrap();
     assert!(
         !table.has("config_index_mean") && !table.has("seed_index_mean"),
         "the sweep's identity columns are neither keys nor metrics: {:?}",
@@ -868,7 +872,7 @@ fn the_verbs_read_a_dataset_written_by_mbmf_sweep() {
             .eq(["tidy1", "ec", "takeover", "0,5"])
     };
     assert!(stdout.lines().any(starts), "{stdout}");
-    let table = dataset::read_parquet_file(&out.join("min_budget.parquet")).unwrap();
+    let table = dataset::read_parquet_file(&out.join("analysis/min_budget.parquet")).unwrap();
     assert_eq!(floats(&table, "n"), [Some(3.0); 4]);
 
     let stdout = run_ok(&["stats", d, "--by", "budget", "--where", "controller=mf"]);

@@ -4,10 +4,13 @@
 use std::sync::Arc;
 
 use mbmf::batch::{Batch, Checkpoint, Cursor, RunConfig, RunStats, RunView, run_rng, step};
+use mbmf::env::NO_NUISANCE;
 use mbmf::env::tidy::{Place, TidyState, Variant, enumerate};
 use mbmf::env::{self, Spec};
-use mbmf::expert::mb::OwnedModel;
-use mbmf::params::{Controller, HumanParams, Interaction, Params};
+use mbmf::expert::mb::{Observable, OwnedModel};
+use mbmf::params::{
+    CongratulationEffect, Controller, HumanParams, Interaction, Params, RewardSource,
+};
 use rand_xoshiro::Xoshiro256PlusPlus;
 
 /// One run with owned arrays, stepped by the engine's own `step`, so tests can set the state and
@@ -45,13 +48,14 @@ impl Solo {
             cost_mb: vec![0.0; spec.n_states],
             visited: vec![false; spec.n_states],
             bonus: vec![0; sa],
-            model: OwnedModel::new(&spec, params.window_n as usize),
+            // The model can observe what a nuisance leaves, too (SPEC 11.2).
+            model: OwnedModel::over(
+                Arc::new(observable_with_nuisance(&spec)),
+                params.window_n as usize,
+            ),
             scratch: vec![0.0; 2 * a],
             rng: run_rng(7, 0),
-            cursor: Cursor {
-                budget_left: params.human.budget,
-                ..Cursor::default()
-            },
+            cursor: Cursor::start(&spec, &params, 0),
             stats: RunStats::default(),
             series: vec![Checkpoint::default(); mbmf::batch::checkpoint_count(&params)],
             spec,
@@ -75,6 +79,7 @@ impl Solo {
             cursor: &mut self.cursor,
             stats: &mut self.stats,
             series: &mut self.series,
+            plan: None,
         };
         step(
             &self.spec,
@@ -95,6 +100,23 @@ impl Solo {
     fn state_of(&self, tidy: TidyState, variant: Variant) -> usize {
         enumerate(variant).iter().position(|&s| s == tidy).unwrap()
     }
+}
+
+/// The spec's outcomes plus those a nuisance human can produce.
+fn observable_with_nuisance(spec: &Spec) -> Observable {
+    let extra: Vec<(usize, u32)> = spec
+        .human
+        .as_ref()
+        .map(|h| {
+            h.nuisance
+                .iter()
+                .enumerate()
+                .filter(|&(_, &n)| n != NO_NUISANCE)
+                .map(|(sa, &n)| (sa, n))
+                .collect()
+        })
+        .unwrap_or_default();
+    Observable::union([spec], extra)
 }
 
 fn human(interaction: Interaction, budget: u32, forget_prob: f64) -> Params {
@@ -401,7 +423,7 @@ fn babbling_counts_no_reward_no_cost_and_no_interaction() {
 
 #[test]
 fn the_cli_runs_ec_with_takeover_and_the_stingy_profile_and_reports_interactions() {
-    use arrow::array::{Array, StringArray, UInt32Array};
+    use arrow::array::{Array, Int64Array, StringArray};
     use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
     let dir = tempfile::tempdir().unwrap();
     for (name, extra) in [
@@ -439,7 +461,7 @@ fn the_cli_runs_ec_with_takeover_and_the_stingy_profile_and_reports_interactions
             .unwrap();
         let col = |n: &str| batch.column(batch.schema().index_of(n).unwrap()).clone();
         let interactions = col("interactions");
-        let interactions = interactions.as_any().downcast_ref::<UInt32Array>().unwrap();
+        let interactions = interactions.as_any().downcast_ref::<Int64Array>().unwrap();
         let profile = col("profile");
         let profile = profile.as_any().downcast_ref::<StringArray>().unwrap();
         assert_eq!(batch.num_rows(), 3);
@@ -452,7 +474,7 @@ fn the_cli_runs_ec_with_takeover_and_the_stingy_profile_and_reports_interactions
             assert_eq!(
                 budget
                     .as_any()
-                    .downcast_ref::<UInt32Array>()
+                    .downcast_ref::<Int64Array>()
                     .unwrap()
                     .value(0),
                 300
@@ -461,5 +483,138 @@ fn the_cli_runs_ec_with_takeover_and_the_stingy_profile_and_reports_interactions
             assert!(interactions.value(0) <= 50);
             assert_eq!(profile.value(0), "custom");
         }
+    }
+}
+
+/// Red in the hand, green and blue already in their boxes: putting red in the red box reaches
+/// the goal.
+fn one_put_from_the_goal() -> TidyState {
+    let mut s = holding_red();
+    s.places[1] = Place::Box(1);
+    s.places[2] = Place::Box(2);
+    s
+}
+
+#[test]
+fn a_nuisance_takes_the_cube_back_out_so_the_goal_is_not_reached_and_the_robot_learns_that() {
+    let mut solo = Solo::new("tidy1", human(Interaction::Nuisance, 1, 0.0));
+    let s = solo.state_of(one_put_from_the_goal(), Variant::Task1);
+    let mut undone = one_put_from_the_goal();
+    undone.places[0] = Place::Table;
+    let undone = solo.state_of(undone, Variant::Task1);
+    let put_red = 3;
+    solo.prefer(s, put_red);
+    solo.cursor.state = s as u32;
+    solo.step();
+    assert_eq!(
+        solo.cursor.state as usize, undone,
+        "the cube is back on the table"
+    );
+    assert_eq!(solo.stats.nuisances, 1);
+    assert_eq!(solo.stats.interactions(), 1);
+    assert_eq!(solo.cursor.budget_left, 0);
+    assert_eq!(
+        solo.stats.total_reward, 0.0,
+        "no reward: the goal was not reached"
+    );
+    assert!(!solo.cursor.pending_reset);
+    // MF learned (s, put, r 0, undone): 1 + 0.6 * (0 + 0.9 * max Q(undone) = 0 - 1) = 0.4.
+    assert!((solo.q_mf[s * 7 + put_red] - 0.4).abs() < 1e-12);
+    // With the budget spent, the same put reaches the goal and is rewarded.
+    solo.prefer(s, put_red);
+    solo.cursor.pending_reset = false;
+    solo.cursor.state = s as u32;
+    solo.step();
+    assert_eq!(solo.stats.total_reward, 1.0);
+    assert!(solo.cursor.pending_reset, "the next step is the reset step");
+    assert_eq!(solo.stats.nuisances, 1);
+    // The model's index space holds both outcomes of the put (the parity tests check that MB
+    // learns them as a stochastic pair).
+    let obs = &solo.model.obs;
+    let next: Vec<usize> = obs
+        .outcomes(s * 7 + put_red)
+        .map(|o| obs.next_state(o))
+        .collect();
+    assert!(next.contains(&undone) && next.len() == 2, "{next:?}");
+}
+
+#[test]
+fn a_nuisance_in_task_2_turns_the_leds_off() {
+    let mut solo = Solo::new("tidy2", human(Interaction::Nuisance, 5, 0.0));
+    let s = solo.state_of(holding_red(), Variant::Task2);
+    solo.prefer(s, 3);
+    solo.cursor.state = s as u32;
+    solo.step();
+    let after = enumerate(Variant::Task2)[solo.cursor.state as usize];
+    assert_eq!(after, TidyState::START);
+    assert_eq!(solo.stats.nuisances, 1);
+}
+
+#[test]
+fn when_only_the_human_rewards_an_arrival_is_rewarded_only_if_an_attentive_human_has_budget() {
+    let params = Params {
+        reward_source: RewardSource::Human,
+        ..human(Interaction::None, 1, 0.0)
+    };
+    let mut solo = Solo::new("tidy1", params);
+    let s = solo.state_of(one_put_from_the_goal(), Variant::Task1);
+    solo.prefer(s, 3);
+    solo.cursor.state = s as u32;
+    solo.step();
+    assert_eq!(solo.stats.total_reward, 1.0);
+    assert_eq!(solo.stats.rewards_given, 1);
+    assert_eq!(solo.stats.interactions(), 1);
+    assert_eq!(solo.cursor.budget_left, 0);
+    // Budget spent: the arrival gives 0 but still ends the episode, and it is terminal for
+    // learning: Q(s, put) = 1 + 0.6 * (0 + 0 - 1) = 0.4, no future term.
+    solo.prefer(s, 3);
+    solo.cursor.pending_reset = false;
+    solo.cursor.state = s as u32;
+    solo.step();
+    assert_eq!(solo.stats.total_reward, 1.0);
+    assert!(solo.cursor.pending_reset);
+    assert!((solo.q_mf[s * 7 + 3] - 0.4).abs() < 1e-12);
+    // An inattentive human forgets the reward (and spends nothing).
+    let params = Params {
+        reward_source: RewardSource::Human,
+        ..human(Interaction::None, 1, 1.0)
+    };
+    let mut solo = Solo::new("tidy1", params);
+    solo.prefer(s, 3);
+    solo.cursor.state = s as u32;
+    solo.step();
+    assert_eq!(solo.stats.total_reward, 0.0);
+    assert_eq!(solo.stats.forgotten, 1);
+    assert_eq!(solo.cursor.budget_left, 1);
+}
+
+#[test]
+fn a_congratulation_that_shapes_the_reward_is_learned_as_r_plus_zeta_and_never_biases_the_choice() {
+    let params = Params {
+        congratulation_effect: CongratulationEffect::Reward,
+        ..human(Interaction::Congratulation, 1, 0.0)
+    };
+    let mut solo = Solo::new("tidy1", params);
+    let s = solo.state_of(holding_red(), Variant::Task1);
+    let sa = s * 7 + 3;
+    for b in 0..7 {
+        solo.q_mf[s * 7 + b] = 0.0;
+    }
+    solo.q_mf[sa] = 1.0;
+    solo.cursor.state = s as u32;
+    solo.step();
+    assert_eq!(solo.stats.congratulations, 1);
+    assert_eq!(solo.bonus[sa], 0, "G is not used");
+    // 1 + 0.6 * (0 + 0.1 + 0.9 * 0 - 1) = 0.46; the reported reward stays the task's, 0.
+    assert!((solo.q_mf[sa] - 0.46).abs() < 1e-12, "{}", solo.q_mf[sa]);
+    assert_eq!(solo.stats.total_reward, 0.0);
+    // Back in s with equal values: no bias in the softmax.
+    for b in 0..7 {
+        solo.q_mf[s * 7 + b] = 0.25;
+    }
+    solo.cursor.state = s as u32;
+    solo.step();
+    for &x in &solo.scratch[..7] {
+        assert!((x - 1.0 / 7.0).abs() < 1e-12);
     }
 }

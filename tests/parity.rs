@@ -14,8 +14,12 @@ use std::path::Path;
 use std::sync::Arc;
 
 use mbmf::batch::{Batch, RunConfig};
+use mbmf::env::tidy::Boxes;
 use mbmf::env::{self, Spec};
-use mbmf::params::{Controller, HumanParams, Interaction, Params, Selection};
+use mbmf::params::{
+    CongratulationEffect, Controller, HumanParams, Interaction, Params, RewardSource, Selection,
+};
+use mbmf::schedule::Schedule;
 use naive::{Arithmetic, NaiveRun};
 
 /// Evaluation order of the reference in the bit-for-bit tests: the SPEC's, as the engine's.
@@ -595,4 +599,228 @@ fn advancing_in_uneven_chunks_matches_the_naive_reference_at_every_pause() {
         diff.assert_empty(&format!("after advancing to step {}", naives[0].t()));
     }
     assert!(naives.iter().all(NaiveRun::finished));
+}
+
+/// As [`assert_parity`], run `r` following `schedules[run_schedule[r]]` (SPEC 10); also compares
+/// the counters and change results of SPEC 10 and 11.
+fn assert_parity_scheduled(
+    spec: &Arc<Spec>,
+    configs: Vec<RunConfig>,
+    schedules: &[Schedule],
+    run_schedule: &[usize],
+) {
+    let mut batch =
+        Batch::with_schedules(Arc::clone(spec), configs.clone(), schedules, run_schedule)
+            .expect("valid schedules");
+    batch.run_to_end();
+    let mut diff = Diff::new();
+    for (r, config) in configs.iter().enumerate() {
+        let none = Schedule::default();
+        let schedule = run_schedule.get(r).map_or(&none, |&i| &schedules[i]);
+        let mut naive =
+            NaiveRun::with_schedule(spec, config.params, config.seed, config.run_index, schedule);
+        naive.run_to_end();
+        compare_run(&mut diff, &batch, r, &naive);
+        let run = format!("{} [{schedule}]", describe(config));
+        let (b, n) = (&batch.stats()[r], naive.stats());
+        for (field, x, y) in [
+            ("rewards_given", b.rewards_given, n.rewards_given),
+            ("nuisances", b.nuisances, n.nuisances),
+            (
+                "first_change_step",
+                b.first_change_step,
+                n.first_change_step,
+            ),
+            (
+                "first_reward_after_change",
+                b.first_reward_after_change,
+                n.first_reward_after_change,
+            ),
+        ] {
+            diff.int(&run, field, x.into(), y.into());
+        }
+        diff.f64(
+            &run,
+            "reward_before_change",
+            b.reward_before_change,
+            n.reward_before_change,
+        );
+        assert_eq!(batch.schedule_text(r), schedule.to_string());
+    }
+    diff.assert_empty(&format!(
+        "{} with schedules against the naive reference",
+        spec.name
+    ));
+}
+
+fn schedules(texts: &[&str]) -> Vec<Schedule> {
+    texts
+        .iter()
+        .map(|t| Schedule::parse(t).unwrap_or_else(|e| panic!("{t}: {e}")))
+        .collect()
+}
+
+/// Every (params, seed, schedule) as a run: configurations and their schedule indices.
+fn scheduled_runs(
+    params: &[Params],
+    seeds: &[u64],
+    n_schedules: usize,
+) -> (Vec<RunConfig>, Vec<usize>) {
+    let mut configs = Vec::new();
+    let mut which = Vec::new();
+    for i in 0..n_schedules {
+        for c in runs(params, seeds) {
+            configs.push(RunConfig {
+                run_index: configs.len() as u64,
+                ..c
+            });
+            which.push(i);
+        }
+    }
+    (configs, which)
+}
+
+#[test]
+fn box_assignments_and_human_changes_on_tidy1_match_the_naive_reference() {
+    let tidy1 = spec("tidy1");
+    let list = schedules(&[
+        "",
+        "1000:boxes=brg",
+        "500:boxes=gbr;1500:boxes=rgb",
+        "800:interaction=congratulation;800:budget=100;1400:interaction=takeover;1400:budget=40",
+        "600:profile=nuisance;1200:interaction=punishment;1200:zeta=0.3;1700:forget=0",
+        "700:reward_source=human;700:budget=60;1300:boxes=bgr;1600:profile=rewards-then-leaves",
+    ]);
+    let params: Vec<Params> = [Controller::Mf, Controller::Mb, Controller::Ec]
+        .iter()
+        .map(|&c| short(c, Selection::Softmax))
+        .collect();
+    let (configs, which) = scheduled_runs(&params, &[5], list.len());
+    assert_parity_scheduled(&tidy1, configs, &list, &which);
+}
+
+#[test]
+fn nuisance_human_reward_and_reward_shaping_match_the_naive_reference() {
+    let mut params = Vec::new();
+    for controller in [
+        Controller::Mf,
+        Controller::Mb,
+        Controller::Rnd,
+        Controller::Ec,
+    ] {
+        let base = short(controller, Selection::Softmax);
+        params.push(Params {
+            human: human(Interaction::Nuisance, 80),
+            ..base
+        });
+        params.push(Params {
+            human: human(Interaction::None, 100),
+            reward_source: RewardSource::Human,
+            ..base
+        });
+        params.push(Params {
+            human: human(Interaction::Congratulation, 200),
+            reward_source: RewardSource::Human,
+            ..base
+        });
+        params.push(Params {
+            human: human(Interaction::Congratulation, 60),
+            congratulation_effect: CongratulationEffect::Reward,
+            ..base
+        });
+        params.push(Params {
+            human: human(Interaction::Takeover, 30),
+            boxes: Boxes::parse("brg").unwrap(),
+            ..base
+        });
+    }
+    let tidy1 = spec("tidy1");
+    assert_parity_scheduled(&tidy1, runs(&params, &[8]), &[], &[]);
+    // Task 2: a nuisance turns the LEDs off.
+    let tidy2 = spec("tidy2");
+    let two: Vec<Params> = params
+        .iter()
+        .filter(|p| p.boxes == Boxes::RGB)
+        .take(8)
+        .copied()
+        .collect();
+    assert_parity_scheduled(&tidy2, runs(&two, &[9]), &[], &[]);
+}
+
+/// The tidy1 fixture as a `json:` world, and a copy of it without a few transitions on the way
+/// to the goal, exported to a temporary folder.
+fn json_worlds() -> (Arc<Spec>, tempfile::TempDir, String, Vec<(u32, u32)>) {
+    let base = spec(&format!("json:{TIDY1_FIXTURE}"));
+    // The first outcome of action 0 in states 0 to 2, and the arrival in the goal from its first
+    // predecessor.
+    let mut pairs: Vec<(u32, u32)> = (0..3)
+        .map(|s| {
+            (
+                s,
+                base.outcome_state[base.outcomes(base.sa(s as usize, 0)).start],
+            )
+        })
+        .collect();
+    let into_goal = (0..base.n_states * base.n_actions)
+        .find(|&sa| {
+            base.outcomes(sa)
+                .any(|o| base.outcome_state[o] == base.goal)
+        })
+        .unwrap();
+    pairs.push(((into_goal / base.n_actions) as u32, base.goal));
+    let cut = mbmf::schedule::delete(&base, &pairs).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let paths = env::json::export(&cut, dir.path()).unwrap();
+    (base, dir, format!("json:{}", paths.model.display()), pairs)
+}
+
+#[test]
+fn goal_moves_world_swaps_and_deletions_on_a_json_world_match_the_naive_reference() {
+    let (base, _dir, cut, pairs) = json_worlds();
+    let delete: Vec<String> = pairs.iter().map(|(a, b)| format!("{a}-{b}")).collect();
+    // A goal the robot reaches often: a state next to the start.
+    let near = base.outcome_state[base.outcomes(base.sa(0, 1)).start];
+    let texts = [
+        String::new(),
+        format!("1000:goal={near}"),
+        format!("1000:goal={near}:2.5;1500:goal={}", base.goal),
+        format!("900:world={cut}"),
+        format!("900:delete={}", delete.join(",")),
+        format!(
+            "700:delete={};1200:world=json:{TIDY1_FIXTURE};1200:goal={near}",
+            delete[0]
+        ),
+        "800:reward_source=human;800:budget=30".to_string(),
+    ];
+    let texts: Vec<&str> = texts.iter().map(String::as_str).collect();
+    let list = schedules(&texts);
+    let params: Vec<Params> = Controller::ALL
+        .iter()
+        .map(|&c| short(c, Selection::Softmax))
+        .collect();
+    let (configs, which) = scheduled_runs(&params, &[4], list.len());
+    assert_parity_scheduled(&base, configs, &list, &which);
+}
+
+#[test]
+fn the_navigation_world_changes_of_the_authors_match_the_naive_reference() {
+    let Some(nav) = navworld() else { return };
+    let dir = Path::new(NAVWORLD).parent().unwrap().display().to_string();
+    let texts = [
+        String::new(),
+        format!("1601:goal=34;1601:world=json:{dir}/realisticNavWorld_newGoal.json"),
+        "1601:delete=20-21,21-20".to_string(),
+        format!("1601:world=json:{dir}/realisticNavWorld_noTrans20-21.json"),
+    ];
+    let texts: Vec<&str> = texts.iter().map(String::as_str).collect();
+    let list = schedules(&texts);
+    let params: Vec<Params> = Controller::ALL
+        .iter()
+        .map(|&c| Params {
+            steps: 3200,
+            ..short(c, Selection::Softmax)
+        })
+        .collect();
+    let (configs, which) = scheduled_runs(&params, &[6], list.len());
+    assert_parity_scheduled(&nav, configs, &list, &which);
 }

@@ -7,7 +7,7 @@
 use std::fs::File;
 use std::path::{Path, PathBuf};
 
-use arrow::array::{Array, Float64Array, RecordBatch, StringArray, UInt64Array};
+use arrow::array::{Array, Float64Array, Int64Array, RecordBatch, StringArray};
 use arrow::datatypes::DataType;
 use assert_cmd::Command;
 use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
@@ -103,16 +103,19 @@ impl Output {
             .collect()
     }
 
-    /// The u64 column `name` of runs.parquet.
+    /// The count column `name` of runs.parquet (Int64, never negative).
     fn runs_u64(&self, name: &str) -> Vec<u64> {
         column(&self.runs, name)
             .iter()
             .flat_map(|a| {
                 let a = a
                     .as_any()
-                    .downcast_ref::<UInt64Array>()
-                    .expect("a u64 column");
-                a.values().to_vec()
+                    .downcast_ref::<Int64Array>()
+                    .expect("an Int64 column");
+                a.values()
+                    .iter()
+                    .map(|&v| u64::try_from(v).unwrap())
+                    .collect::<Vec<_>>()
             })
             .collect()
     }

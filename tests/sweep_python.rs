@@ -142,10 +142,10 @@ fn polars_scan_parquet_and_pandas_read_parquet_read_a_sweep_dataset() {
         Some(reward(&ec))
     );
     assert_eq!(got["pandas_seeds"], serde_json::json!([0, 1, 2]));
-    assert_eq!(got["polars_run_index_dtype"], "UInt64");
+    assert_eq!(got["polars_run_index_dtype"], "Int64");
     let columns = got["polars_columns"].as_array().unwrap();
     for c in [
-        "seed",
+        "master_seed",
         "config_index",
         "seed_index",
         "kappa_coeff",

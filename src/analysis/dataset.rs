@@ -1,27 +1,33 @@
-//! Reading result datasets into a small columnar [`Table`], filtering rows and grouping runs by
-//! configuration.
+//! Reading result datasets into a small [`Table`] of Arrow columns, filtering rows and grouping
+//! runs by configuration with Arrow's compute kernels.
 //!
 //! A dataset is what `mbmf run --out DIR` writes (`DIR/runs.parquet`, `DIR/series.parquet`) or
 //! what `mbmf sweep --out DIR` writes (`DIR/runs/part-*.parquet`, `DIR/series/part-*.parquet`).
 //! [`read_dataset`] accepts either folder, the `runs/` folder itself, or one `.parquet` file.
-//! Columns keep a simple type (float, signed or unsigned integer, string, boolean; all
-//! nullable): whatever the Parquet writer chose (u32 or u64, Utf8 or LargeUtf8, dictionary or
-//! not) is widened to one of these, so files written by polars or pandas read the same way.
+//! Columns are cast on reading to one of five Arrow types (Float64, Int64, UInt64, Utf8,
+//! Boolean; all nullable): whatever the Parquet writer chose (i32 or u64, Utf8 or LargeUtf8,
+//! dictionary or not) is widened to one of these, so files written by polars or pandas read the
+//! same way, and a dataset whose files disagree on an integer's signedness reads as Int64.
 
 use crate::suggest::edit_distance;
 use std::cmp::Ordering;
-use std::collections::{BTreeMap, BTreeSet};
+use std::collections::BTreeSet;
 use std::fmt;
 use std::fs::File;
-use std::hash::{Hash, Hasher};
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, OnceLock};
 
 use arrow::array::{
     Array, ArrayRef, AsArray, BooleanArray, Float64Array, Int64Array, RecordBatch,
-    RecordBatchReader, StringArray, UInt64Array,
+    RecordBatchReader, StringArray, UInt32Array, UInt64Array, new_null_array,
+};
+use arrow::compute::kernels::cmp::eq;
+use arrow::compute::{
+    CastOptions, SortColumn, and, cast, cast_with_options, concat, concat_batches, filter, is_null,
+    lexsort_to_indices, partition, take,
 };
 use arrow::datatypes::{DataType, Field, Float64Type, Int64Type, Schema, UInt64Type};
+use arrow::error::ArrowError;
 use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
 
 /// Failure to read a dataset or to find what an analysis asks for in it. Every message names
@@ -133,196 +139,150 @@ pub enum DatasetError {
     },
 }
 
-/// One column of a [`Table`]: a simple type, every value nullable.
-#[derive(Debug, Clone, PartialEq)]
-pub enum Column {
-    /// Floating point (any float width).
-    Float(Vec<Option<f64>>),
-    /// Signed integers (any width).
-    Int(Vec<Option<i64>>),
-    /// Unsigned integers (any width).
-    UInt(Vec<Option<u64>>),
-    /// Text (Utf8, LargeUtf8, views and dictionaries of them).
-    Str(Vec<Option<String>>),
-    /// Booleans.
-    Bool(Vec<Option<bool>>),
+/// One column of a [`Table`]: an Arrow array of Float64, Int64, UInt64, Utf8 or Boolean, every
+/// value nullable.
+#[derive(Debug, Clone)]
+pub struct Column(ArrayRef);
+
+impl PartialEq for Column {
+    fn eq(&self, other: &Column) -> bool {
+        self.0.as_ref() == other.0.as_ref()
+    }
 }
 
 impl Column {
+    /// Floats, `None` for null.
+    pub fn floats(values: impl IntoIterator<Item = Option<f64>>) -> Column {
+        Column(Arc::new(Float64Array::from_iter(values)))
+    }
+
+    /// Unsigned integers, `None` for null.
+    pub fn uints(values: impl IntoIterator<Item = Option<u64>>) -> Column {
+        Column(Arc::new(UInt64Array::from_iter(values)))
+    }
+
+    /// Text, `None` for null.
+    pub fn texts<S: AsRef<str>>(values: impl IntoIterator<Item = Option<S>>) -> Column {
+        Column(Arc::new(StringArray::from_iter(values)))
+    }
+
+    /// Booleans, `None` for null.
+    pub fn bools(values: impl IntoIterator<Item = Option<bool>>) -> Column {
+        Column(Arc::new(BooleanArray::from_iter(values)))
+    }
+
+    /// The Arrow array.
+    pub fn array(&self) -> &ArrayRef {
+        &self.0
+    }
+
     /// Number of values.
     pub fn len(&self) -> usize {
-        match self {
-            Column::Float(v) => v.len(),
-            Column::Int(v) => v.len(),
-            Column::UInt(v) => v.len(),
-            Column::Str(v) => v.len(),
-            Column::Bool(v) => v.len(),
-        }
+        self.0.len()
     }
 
     /// `true` when the column has no values.
     pub fn is_empty(&self) -> bool {
-        self.len() == 0
+        self.0.is_empty()
     }
 
-    /// The type's name, for messages.
+    /// The type's name, for messages (signed and unsigned integers alike: which one a file
+    /// holds is the writer's choice, not something a reader should have to care about).
     pub fn type_name(&self) -> &'static str {
-        match self {
-            Column::Float(_) => "floats",
-            Column::Int(_) => "integers",
-            Column::UInt(_) => "unsigned integers",
-            Column::Str(_) => "text",
-            Column::Bool(_) => "booleans",
-        }
+        type_name(self.0.data_type())
     }
 
     /// `true` for floats and integers.
     pub fn is_numeric(&self) -> bool {
-        matches!(self, Column::Float(_) | Column::Int(_) | Column::UInt(_))
+        self.0.data_type().is_numeric()
     }
 
     /// Value `i` as a float, `None` when null or not numeric.
     pub fn f64_at(&self, i: usize) -> Option<f64> {
-        match self {
-            Column::Float(v) => v[i],
-            Column::Int(v) => v[i].map(|x| x as f64),
-            Column::UInt(v) => v[i].map(|x| x as f64),
-            Column::Str(_) | Column::Bool(_) => None,
-        }
+        self.value(i).as_f64()
     }
 
     /// Value `i`.
     pub fn value(&self, i: usize) -> Value {
-        match self {
-            Column::Float(v) => v[i].map_or(Value::Null, Value::Float),
-            Column::Int(v) => v[i].map_or(Value::Null, Value::Int),
-            Column::UInt(v) => v[i].map_or(Value::Null, Value::UInt),
-            Column::Str(v) => v[i].clone().map_or(Value::Null, Value::Str),
-            Column::Bool(v) => v[i].map_or(Value::Null, Value::Bool),
+        let a = &self.0;
+        if a.is_null(i) {
+            return Value::Null;
+        }
+        match a.data_type() {
+            DataType::Float64 => Value::Float(a.as_primitive::<Float64Type>().value(i)),
+            DataType::Int64 => Value::Int(a.as_primitive::<Int64Type>().value(i)),
+            DataType::UInt64 => Value::UInt(a.as_primitive::<UInt64Type>().value(i)),
+            DataType::Boolean => Value::Bool(a.as_boolean().value(i)),
+            _ => Value::Str(a.as_string::<i32>().value(i).to_owned()),
         }
     }
 
     /// The values at `rows`, in that order.
+    ///
+    /// # Panics
+    /// If a row is out of range (a bug in the caller).
     pub fn take(&self, rows: &[usize]) -> Column {
-        match self {
-            Column::Float(v) => Column::Float(rows.iter().map(|&i| v[i]).collect()),
-            Column::Int(v) => Column::Int(rows.iter().map(|&i| v[i]).collect()),
-            Column::UInt(v) => Column::UInt(rows.iter().map(|&i| v[i]).collect()),
-            Column::Str(v) => Column::Str(rows.iter().map(|&i| v[i].clone()).collect()),
-            Column::Bool(v) => Column::Bool(rows.iter().map(|&i| v[i]).collect()),
-        }
+        let indices = UInt64Array::from_iter_values(rows.iter().map(|&r| r as u64));
+        Column(take(&self.0, &indices, None).expect("row indices within the column"))
+    }
+
+    /// The values where `mask` is true.
+    fn filter(&self, mask: &BooleanArray) -> Column {
+        Column(filter(&self.0, mask).expect("a mask as long as the column"))
     }
 
     /// A column of the same type holding `values` (which must match that type or be null).
     pub fn from_values(like: &Column, values: &[Value]) -> Column {
-        match like {
-            Column::Float(_) => Column::Float(values.iter().map(Value::as_f64).collect()),
-            Column::Int(_) => Column::Int(
-                values
-                    .iter()
-                    .map(|v| match v {
-                        Value::Int(x) => Some(*x),
-                        _ => None,
-                    })
-                    .collect(),
-            ),
-            Column::UInt(_) => Column::UInt(
-                values
-                    .iter()
-                    .map(|v| match v {
-                        Value::UInt(x) => Some(*x),
-                        _ => None,
-                    })
-                    .collect(),
-            ),
-            Column::Str(_) => Column::Str(
-                values
-                    .iter()
-                    .map(|v| match v {
-                        Value::Str(s) => Some(s.clone()),
-                        _ => None,
-                    })
-                    .collect(),
-            ),
-            Column::Bool(_) => Column::Bool(
-                values
-                    .iter()
-                    .map(|v| match v {
-                        Value::Bool(b) => Some(*b),
-                        _ => None,
-                    })
-                    .collect(),
-            ),
+        match like.0.data_type() {
+            DataType::Float64 => Column::floats(values.iter().map(Value::as_f64)),
+            DataType::Int64 => Column(Arc::new(Int64Array::from_iter(values.iter().map(
+                |v| match v {
+                    Value::Int(x) => Some(*x),
+                    _ => None,
+                },
+            )))),
+            DataType::UInt64 => Column::uints(values.iter().map(|v| match v {
+                Value::UInt(x) => Some(*x),
+                _ => None,
+            })),
+            DataType::Boolean => Column::bools(values.iter().map(|v| match v {
+                Value::Bool(b) => Some(*b),
+                _ => None,
+            })),
+            _ => Column::texts(values.iter().map(|v| match v {
+                Value::Str(s) => Some(s.as_str()),
+                _ => None,
+            })),
         }
     }
 
-    /// An empty column of the same type.
-    fn empty_like(&self) -> Column {
-        self.take(&[])
-    }
-
-    /// Appends `n` nulls.
-    fn push_nulls(&mut self, n: usize) {
-        match self {
-            Column::Float(v) => v.extend(std::iter::repeat_n(None, n)),
-            Column::Int(v) => v.extend(std::iter::repeat_n(None, n)),
-            Column::UInt(v) => v.extend(std::iter::repeat_n(None, n)),
-            Column::Str(v) => v.extend(std::iter::repeat_n(None, n)),
-            Column::Bool(v) => v.extend(std::iter::repeat_n(None, n)),
-        }
-    }
-
-    /// Appends `other` (same type) or returns `false`.
-    fn append(&mut self, other: Column) -> bool {
-        match (self, other) {
-            (Column::Float(a), Column::Float(b)) => a.extend(b),
-            (Column::Int(a), Column::Int(b)) => a.extend(b),
-            (Column::UInt(a), Column::UInt(b)) => a.extend(b),
-            (Column::Str(a), Column::Str(b)) => a.extend(b),
-            (Column::Bool(a), Column::Bool(b)) => a.extend(b),
-            _ => return false,
-        }
-        true
-    }
-
-    /// The column as an Arrow array (nullable).
-    pub fn to_arrow(&self) -> ArrayRef {
-        match self {
-            Column::Float(v) => Arc::new(v.iter().copied().collect::<Float64Array>()),
-            Column::Int(v) => Arc::new(v.iter().copied().collect::<Int64Array>()),
-            Column::UInt(v) => Arc::new(v.iter().copied().collect::<UInt64Array>()),
-            Column::Str(v) => Arc::new(v.iter().map(|s| s.as_deref()).collect::<StringArray>()),
-            Column::Bool(v) => Arc::new(v.iter().copied().collect::<BooleanArray>()),
-        }
-    }
-
-    /// Converts an Arrow array, or `None` for types the analyses do not use (lists, dates...).
-    fn from_arrow(array: &ArrayRef) -> Result<Option<Column>, arrow::error::ArrowError> {
-        use arrow::compute::cast;
+    /// Casts an Arrow array to the column type it reads as, or `None` for types the analyses
+    /// do not use (lists, dates...).
+    fn from_arrow(array: &ArrayRef) -> Result<Option<Column>, ArrowError> {
         let dt = array.data_type();
-        let column = if dt.is_floating() {
-            let a = cast(array, &DataType::Float64)?;
-            Column::Float(a.as_primitive::<Float64Type>().iter().collect())
+        let to = if dt.is_floating() {
+            DataType::Float64
         } else if dt.is_signed_integer() {
-            let a = cast(array, &DataType::Int64)?;
-            Column::Int(a.as_primitive::<Int64Type>().iter().collect())
+            DataType::Int64
         } else if dt.is_unsigned_integer() {
-            let a = cast(array, &DataType::UInt64)?;
-            Column::UInt(a.as_primitive::<UInt64Type>().iter().collect())
+            DataType::UInt64
         } else if *dt == DataType::Boolean {
-            Column::Bool(array.as_boolean().iter().collect())
+            DataType::Boolean
         } else if is_text(dt) {
-            let a = cast(array, &DataType::Utf8)?;
-            Column::Str(
-                a.as_string::<i32>()
-                    .iter()
-                    .map(|s| s.map(str::to_owned))
-                    .collect(),
-            )
+            DataType::Utf8
         } else {
             return Ok(None);
         };
-        Ok(Some(column))
+        Ok(Some(Column(cast(array, &to)?)))
+    }
+}
+
+fn type_name(dt: &DataType) -> &'static str {
+    match dt {
+        DataType::Float64 => "floats",
+        DataType::Int64 | DataType::UInt64 => "integers",
+        DataType::Boolean => "booleans",
+        _ => "text",
     }
 }
 
@@ -421,21 +381,6 @@ impl PartialEq for Value {
 }
 
 impl Eq for Value {}
-
-impl Hash for Value {
-    fn hash<H: Hasher>(&self, state: &mut H) {
-        // Equal values have the same variant (see `cmp`), so hashing the variant is consistent.
-        self.variant().hash(state);
-        match self {
-            Value::Null => {}
-            Value::Bool(b) => b.hash(state),
-            Value::Int(x) => x.hash(state),
-            Value::UInt(x) => x.hash(state),
-            Value::Float(x) => x.to_bits().hash(state),
-            Value::Str(s) => s.hash(state),
-        }
-    }
-}
 
 impl fmt::Display for Value {
     /// Floats in their shortest round-trip form (`0.1`, `9`), null as `null`.
@@ -566,7 +511,8 @@ impl Table {
                 numeric: self.numeric_names().join(", "),
             });
         }
-        Ok((0..self.rows).map(|i| column.f64_at(i)).collect())
+        let floats = cast(column.array(), &DataType::Float64).map_err(|e| self.arrow_error(e))?;
+        Ok(floats.as_primitive::<Float64Type>().iter().collect())
     }
 
     /// Names of the numeric columns.
@@ -581,18 +527,38 @@ impl Table {
 
     /// The rows at `rows`, in that order, as a new table with the same source.
     pub fn take(&self, rows: &[usize]) -> Table {
+        self.with_columns(
+            self.columns.iter().map(|c| c.take(rows)).collect(),
+            rows.len(),
+        )
+    }
+
+    /// The rows where `mask` is true, as a new table with the same source.
+    fn filter(&self, mask: &BooleanArray) -> Table {
+        let rows = mask.true_count();
+        self.with_columns(self.columns.iter().map(|c| c.filter(mask)).collect(), rows)
+    }
+
+    fn with_columns(&self, columns: Vec<Column>, rows: usize) -> Table {
         Table {
             source: self.source.clone(),
             names: self.names.clone(),
-            columns: self.columns.iter().map(|c| c.take(rows)).collect(),
-            rows: rows.len(),
+            columns,
+            rows,
             skipped: self.skipped.clone(),
         }
     }
 
+    fn arrow_error(&self, source: ArrowError) -> DatasetError {
+        DatasetError::Arrow {
+            path: PathBuf::from(&self.source),
+            source,
+        }
+    }
+
     /// The table as one Arrow record batch (every field nullable), e.g. for `write_parquet`.
-    pub fn to_record_batch(&self) -> Result<RecordBatch, arrow::error::ArrowError> {
-        let arrays: Vec<ArrayRef> = self.columns.iter().map(Column::to_arrow).collect();
+    pub fn to_record_batch(&self) -> Result<RecordBatch, ArrowError> {
+        let arrays: Vec<ArrayRef> = self.columns.iter().map(|c| c.0.clone()).collect();
         let fields: Vec<Field> = self
             .names
             .iter()
@@ -602,48 +568,67 @@ impl Table {
         RecordBatch::try_new(Arc::new(Schema::new(fields)), arrays)
     }
 
-    /// Appends a file's table, filling columns one side lacks with nulls.
-    fn append(&mut self, other: Table, path: &Path) -> Result<(), DatasetError> {
-        let before = self.rows;
-        let mut seen = vec![false; self.names.len()];
-        for (name, column) in other.names.into_iter().zip(other.columns) {
-            let added = column.len();
-            match self.names.iter().position(|n| *n == name) {
-                Some(i) => {
-                    let (expected, found) = (self.columns[i].type_name(), column.type_name());
-                    if !self.columns[i].append(column) {
+    /// The files' tables one after the other: every column of any file, null in the files
+    /// that lack it; integers of both signs in one column become Int64.
+    fn concat(source: String, parts: &[(Table, PathBuf)]) -> Result<Table, DatasetError> {
+        let mut table = Table::new(source);
+        for (part, _) in parts {
+            for name in &part.names {
+                if !table.has(name) {
+                    table.names.push(name.clone());
+                }
+            }
+            for s in &part.skipped {
+                if !table.skipped.contains(s) {
+                    table.skipped.push(s.clone());
+                }
+            }
+        }
+        for name in &table.names {
+            let mut dt = parts
+                .iter()
+                .find_map(|(p, _)| p.column(name).ok())
+                .map(|c| c.0.data_type().clone())
+                .expect("a column of some part");
+            let integer = |d: &DataType| d.is_integer();
+            let of = |p: &Table| p.column(name).ok().map(|c| c.0.data_type().clone());
+            if integer(&dt) && parts.iter().filter_map(|(p, _)| of(p)).any(|d| d != dt) {
+                dt = DataType::Int64;
+            }
+            let mut arrays = Vec::with_capacity(parts.len());
+            for (part, path) in parts {
+                let array = match part.column(name) {
+                    Ok(c) if *c.0.data_type() == dt => c.0.clone(),
+                    Ok(c) if integer(&dt) && c.0.data_type().is_integer() => {
+                        let strict = CastOptions {
+                            safe: false,
+                            ..CastOptions::default()
+                        };
+                        cast_with_options(&c.0, &dt, &strict).map_err(|source| {
+                            DatasetError::Arrow {
+                                path: path.clone(),
+                                source,
+                            }
+                        })?
+                    }
+                    Ok(c) => {
                         return Err(DatasetError::SchemaMismatch {
-                            path: path.to_path_buf(),
-                            column: name,
-                            expected,
-                            found,
+                            path: path.clone(),
+                            column: name.clone(),
+                            expected: type_name(&dt),
+                            found: c.type_name(),
                         });
                     }
-                    seen[i] = true;
-                }
-                None => {
-                    let mut filled = column.empty_like();
-                    filled.push_nulls(before);
-                    filled.append(column);
-                    self.names.push(name);
-                    self.columns.push(filled);
-                    seen.push(true);
-                }
+                    Err(_) => new_null_array(&dt, part.rows),
+                };
+                arrays.push(array);
             }
-            debug_assert_eq!(added, other.rows);
+            let refs: Vec<&dyn Array> = arrays.iter().map(|a| a.as_ref()).collect();
+            let joined = concat(&refs).map_err(|e| table.arrow_error(e))?;
+            table.columns.push(Column(joined));
         }
-        for (column, seen) in self.columns.iter_mut().zip(seen) {
-            if !seen {
-                column.push_nulls(other.rows);
-            }
-        }
-        self.rows += other.rows;
-        for s in other.skipped {
-            if !self.skipped.contains(&s) {
-                self.skipped.push(s);
-            }
-        }
-        Ok(())
+        table.rows = parts.iter().map(|(p, _)| p.rows).sum();
+        Ok(table)
     }
 }
 
@@ -686,33 +671,15 @@ pub fn read_parquet_file(path: &Path) -> Result<Table, DatasetError> {
         source,
     };
     let schema = reader.schema();
+    let batches = reader.collect::<Result<Vec<_>, _>>().map_err(arrow_err)?;
+    let batch = concat_batches(&schema, &batches).map_err(arrow_err)?;
     let mut table = Table::new(path.display().to_string());
-    let mut kept: Vec<Option<Column>> = Vec::new();
-    for field in schema.fields() {
-        // Probe each type on an empty array: unsupported columns are skipped, not fatal.
-        let empty = arrow::array::new_empty_array(field.data_type());
-        let column = Column::from_arrow(&empty).map_err(arrow_err)?;
-        if column.is_none() {
-            table
+    for (field, array) in schema.fields().iter().zip(batch.columns()) {
+        match Column::from_arrow(array).map_err(arrow_err)? {
+            Some(column) => table.push(field.name().clone(), column),
+            None => table
                 .skipped
-                .push((field.name().clone(), field.data_type().to_string()));
-        }
-        kept.push(column);
-    }
-    for batch in reader {
-        let batch = batch.map_err(arrow_err)?;
-        for (slot, array) in kept.iter_mut().zip(batch.columns()) {
-            if let Some(column) = slot {
-                let part = Column::from_arrow(array)
-                    .map_err(arrow_err)?
-                    .expect("type probed above");
-                column.append(part);
-            }
-        }
-    }
-    for (field, column) in schema.fields().iter().zip(kept) {
-        if let Some(column) = column {
-            table.push(field.name().clone(), column);
+                .push((field.name().clone(), field.data_type().to_string())),
         }
     }
     Ok(table)
@@ -818,16 +785,16 @@ fn parquet_files(dir: &Path, keep: impl Fn(&str) -> bool) -> Result<Vec<PathBuf>
 pub fn read_dataset(path: &Path, name: &str) -> Result<Table, DatasetError> {
     let files = dataset_files(path, name)?;
     let single = path.join(format!("{name}.parquet"));
-    let mut table = Table::new(match files.as_slice() {
+    let source = match files.as_slice() {
         [one] if path.is_file() || *one == single => one.display().to_string(),
         [_] => format!("{} (1 {name} file)", path.display()),
         many => format!("{} ({} {name} files)", path.display(), many.len()),
-    });
-    for file in &files {
-        let part = read_parquet_file(file)?;
-        table.append(part, file)?;
-    }
-    Ok(table)
+    };
+    let parts = files
+        .into_iter()
+        .map(|file| Ok((read_parquet_file(&file)?, file)))
+        .collect::<Result<Vec<_>, DatasetError>>()?;
+    Table::concat(source, &parts)
 }
 
 /// Reads the `runs` table of a dataset (see [`read_dataset`]).
@@ -835,16 +802,30 @@ pub fn read_runs(path: &Path) -> Result<Table, DatasetError> {
     read_dataset(path, "runs")
 }
 
-/// The folder analyses write into by default: `path` if it is a folder, else its parent.
+/// The folder analyses write into by default: `analysis/` in the dataset's folder, never among
+/// the data files, so `pd.read_parquet(DIR/runs)` and globs over the data keep reading runs
+/// only. The dataset's folder is `path` if it is a folder, else the folder holding the file; a
+/// sweep's `runs/` or `series/` folder stands for the sweep's folder.
 pub fn output_folder(path: &Path) -> PathBuf {
-    if path.is_dir() {
+    let folder = if path.is_dir() {
         path.to_path_buf()
     } else {
         match path.parent() {
             Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
             _ => PathBuf::from("."),
         }
-    }
+    };
+    let in_sweep = folder
+        .file_name()
+        .is_some_and(|n| n == "runs" || n == "series")
+        && folder
+            .parent()
+            .is_some_and(|p| p.join(crate::sweep::store::SWEEP_FILE).is_file());
+    let root = match folder.parent() {
+        Some(p) if in_sweep => p.to_path_buf(),
+        _ => folder,
+    };
+    root.join("analysis")
 }
 
 /// The parameter columns `mbmf run` and `mbmf sweep` write (identity first: `run_index`,
@@ -873,7 +854,7 @@ pub fn parameter_columns() -> &'static [String] {
 
 /// Columns that identify a run rather than configure it or report on it: never grouped by,
 /// never averaged (`config_index` and `seed_index` are added by `mbmf sweep`).
-pub const RUN_IDENTITY: [&str; 4] = ["run_index", "seed", "config_index", "seed_index"];
+pub const RUN_IDENTITY: [&str; 4] = ["run_index", "master_seed", "config_index", "seed_index"];
 
 /// The configuration columns of `table`: its parameter columns except `run_index` and `seed`,
 /// in the order `mbmf` writes them.
@@ -889,31 +870,55 @@ pub fn configuration_columns(table: &Table) -> Vec<String> {
 pub type Groups = Vec<(Vec<Value>, Vec<usize>)>;
 
 /// Groups the rows of `table` by their values in `keys`: one `(key values, row indices)` per
-/// distinct combination, in ascending key order (numbers numerically), rows in table order.
+/// distinct combination, in ascending key order (numbers numerically, nulls first), rows in
+/// table order.
 pub fn group_rows(table: &Table, keys: &[String]) -> Result<Groups, DatasetError> {
     let columns: Vec<&Column> = keys
         .iter()
         .map(|k| table.column(k))
         .collect::<Result<_, _>>()?;
-    let mut groups: BTreeMap<Vec<Value>, Vec<usize>> = BTreeMap::new();
-    for row in 0..table.len() {
-        let key: Vec<Value> = columns.iter().map(|c| c.value(row)).collect();
-        groups.entry(key).or_default().push(row);
+    if columns.is_empty() {
+        let all: Vec<usize> = (0..table.len()).collect();
+        return Ok(if all.is_empty() {
+            vec![]
+        } else {
+            vec![(vec![], all)]
+        });
     }
-    Ok(groups.into_iter().collect())
+    let sort_by: Vec<SortColumn> = columns
+        .iter()
+        .map(|c| SortColumn {
+            values: c.0.clone(),
+            options: None,
+        })
+        .collect();
+    let arrow_err = |e| table.arrow_error(e);
+    let order: UInt32Array = lexsort_to_indices(&sort_by, None).map_err(arrow_err)?;
+    let sorted = columns
+        .iter()
+        .map(|c| take(&c.0, &order, None))
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(arrow_err)?;
+    let ranges = partition(&sorted).map_err(arrow_err)?.ranges();
+    Ok(ranges
+        .into_iter()
+        .map(|range| {
+            // The sort is not stable: put each group's rows back in table order.
+            let mut rows: Vec<usize> = order.values()[range].iter().map(|&i| i as usize).collect();
+            rows.sort_unstable();
+            (columns.iter().map(|c| c.value(rows[0])).collect(), rows)
+        })
+        .collect())
 }
 
 /// The columns among `keys` that take more than one value over `rows` of `table`.
 pub fn varying_columns(table: &Table, keys: &[String], rows: &[usize]) -> Vec<String> {
     keys.iter()
         .filter(|k| {
-            table.column(k).is_ok_and(|c| {
-                let mut values = rows.iter().map(|&r| c.value(r));
-                match values.next() {
-                    Some(first) => values.any(|v| v != first),
-                    None => false,
-                }
-            })
+            // Unsorted values split into more than one run of equal values iff they differ.
+            table
+                .column(k)
+                .is_ok_and(|c| partition(&[c.take(rows).0]).is_ok_and(|p| p.len() > 1))
         })
         .cloned()
         .collect()
@@ -960,32 +965,25 @@ impl Filter {
         format!("{}={}", self.column, self.value)
     }
 
-    /// Whether row `i` of `column` matches; errors when the value cannot be of that type.
-    fn matcher<'a>(
-        &'a self,
-        column: &'a Column,
-    ) -> Result<impl Fn(usize) -> bool + 'a, DatasetError> {
+    /// The rows of `column` that match (true), errors when the value cannot be of that type.
+    fn mask(&self, column: &Column) -> Result<BooleanArray, DatasetError> {
         let bad = |reason: String| DatasetError::BadFilter {
             text: self.text(),
             reason,
         };
-        enum Want {
-            Null,
-            Num(f64),
-            Str(String),
-            Bool(bool),
-        }
-        let want = if self.value == "null" {
-            Want::Null
+        let array = column.array();
+        let matched = if self.value == "null" {
+            is_null(array)
         } else if column.is_numeric() {
-            Want::Num(self.value.parse::<f64>().map_err(|_| {
+            let x = self.value.parse::<f64>().map_err(|_| {
                 bad(format!(
                     "column '{}' holds numbers; '{}' is not a number",
                     self.column, self.value
                 ))
-            })?)
-        } else if let Column::Bool(_) = column {
-            Want::Bool(match self.value.to_lowercase().as_str() {
+            })?;
+            cast(array, &DataType::Float64).and_then(|a| eq(&a, &Float64Array::new_scalar(x)))
+        } else if *array.data_type() == DataType::Boolean {
+            let b = match self.value.to_lowercase().as_str() {
                 "true" | "on" | "1" => true,
                 "false" | "off" | "0" => false,
                 _ => {
@@ -994,39 +992,32 @@ impl Filter {
                         self.column
                     )));
                 }
-            })
+            };
+            eq(array, &BooleanArray::new_scalar(b))
         } else {
-            Want::Str(self.value.clone())
+            eq(array, &StringArray::new_scalar(&self.value))
         };
-        Ok(move |i: usize| match (&want, column.value(i)) {
-            (Want::Null, Value::Null) => true,
-            (Want::Num(x), v) => v.as_f64() == Some(*x),
-            (Want::Str(s), Value::Str(v)) => *s == v,
-            (Want::Bool(b), Value::Bool(v)) => *b == v,
-            _ => false,
-        })
+        matched.map_err(|e| bad(format!("cannot compare column '{}': {e}", self.column)))
     }
 
     /// The rows of `table` that match every filter (all of them when `filters` is empty).
     /// Errors name the filter and, when nothing matches, the values present.
     pub fn apply_all(table: &Table, filters: &[Filter]) -> Result<Table, DatasetError> {
-        let mut rows: Vec<usize> = (0..table.len()).collect();
+        let mut keep = BooleanArray::from(vec![true; table.len()]);
         for f in filters {
             let column = table.column(&f.column)?;
-            let matches = f.matcher(column)?;
-            let kept: Vec<usize> = rows.iter().copied().filter(|&r| matches(r)).collect();
-            if kept.is_empty() {
-                let remaining = column.take(&rows);
+            let kept = and(&keep, &f.mask(column)?).map_err(|e| table.arrow_error(e))?;
+            if kept.true_count() == 0 {
                 return Err(DatasetError::NoMatch {
                     dataset: table.source().to_owned(),
                     text: f.text(),
                     column: f.column.clone(),
-                    values: distinct_values(&remaining, 20),
+                    values: distinct_values(&column.filter(&keep), 20),
                 });
             }
-            rows = kept;
+            keep = kept;
         }
-        Ok(table.take(&rows))
+        Ok(table.filter(&keep))
     }
 }
 
@@ -1077,25 +1068,67 @@ mod tests {
     #[test]
     fn parameter_columns_start_with_the_run_identity() {
         let names = parameter_columns();
-        assert_eq!(&names[..2], ["run_index", "seed"]);
+        assert_eq!(&names[..2], ["run_index", "master_seed"]);
         assert!(names.iter().any(|n| n == "kappa_coeff"));
         assert!(names.iter().any(|n| n == "budget"));
     }
 
     #[test]
+    fn groups_come_in_key_order_with_rows_in_table_order() {
+        let mut t = Table::new("test");
+        let controllers = [Some("mf"), Some("ec"), None, Some("mf"), Some("ec")];
+        t.push("c", Column::texts(controllers));
+        t.push("k", Column::floats([9.0, 3.0, 1.0, 9.0, 1.0].map(Some)));
+        let keys = ["c".to_owned(), "k".to_owned()];
+        let groups: Vec<(String, Vec<usize>)> = group_rows(&t, &keys)
+            .unwrap()
+            .into_iter()
+            .map(|(key, rows)| (format!("{} {}", key[0], key[1]), rows))
+            .collect();
+        let expected = [("null 1", vec![2]), ("ec 1", vec![4]), ("ec 3", vec![1])];
+        assert_eq!(groups[..3], expected.map(|(k, r)| (k.to_owned(), r)));
+        assert_eq!(groups[3], ("mf 9".to_owned(), vec![0, 3]));
+        assert!(varying_columns(&t, &keys, &[0, 3]).is_empty());
+        assert_eq!(varying_columns(&t, &keys, &[1, 4]), ["k"]);
+    }
+
+    #[test]
+    fn files_disagreeing_on_integer_signedness_read_as_signed() {
+        let part = |column: Column, file: &str| {
+            let mut t = Table::new(file);
+            t.push("budget", column);
+            (t, PathBuf::from(file))
+        };
+        let signed = |v: Vec<Option<i64>>| Column(Arc::new(Int64Array::from(v)));
+        let parts = [
+            part(Column::uints([Some(5)]), "a"),
+            part(signed(vec![Some(-1), None]), "b"),
+        ];
+        let t = Table::concat("both".to_owned(), &parts).unwrap();
+        let budget = t.column("budget").unwrap();
+        assert_eq!(*budget.array().data_type(), DataType::Int64);
+        let values: Vec<Value> = (0..t.len()).map(|i| budget.value(i)).collect();
+        assert_eq!(values, [Value::Int(5), Value::Int(-1), Value::Null]);
+        assert_eq!(
+            budget.type_name(),
+            parts[0].0.column("budget").unwrap().type_name()
+        );
+        // A u64 beyond i64 cannot be widened: an error naming the file, never a silent null.
+        let parts = [
+            part(Column::uints([Some(u64::MAX)]), "a.parquet"),
+            part(signed(vec![Some(1)]), "b.parquet"),
+        ];
+        let e = Table::concat("both".to_owned(), &parts).unwrap_err();
+        assert!(e.to_string().starts_with("a.parquet: "), "{e}");
+    }
+
+    #[test]
     fn filters_compare_numbers_as_numbers_and_report_the_values_present() {
         let mut t = Table::new("test");
-        t.push(
-            "kappa",
-            Column::Float(vec![Some(9.0), Some(3.0), Some(9.0)]),
-        );
+        t.push("kappa", Column::floats([Some(9.0), Some(3.0), Some(9.0)]));
         t.push(
             "controller",
-            Column::Str(vec![
-                Some("ec".into()),
-                Some("mf".into()),
-                Some("mf".into()),
-            ]),
+            Column::texts([Some("ec"), Some("mf"), Some("mf")]),
         );
         let f = |s: &str| Filter::parse(s).unwrap();
         let kept = Filter::apply_all(&t, &[f("kappa=9"), f("controller=mf")]).unwrap();

@@ -261,30 +261,30 @@ impl Front {
         }
         t.push(
             "n",
-            Column::UInt(c.rows.iter().map(|r| Some(r.len() as u64)).collect()),
+            Column::uints(c.rows.iter().map(|r| Some(r.len() as u64))),
         );
         let finite = |x: f64| x.is_finite().then_some(x);
         for (m, name) in c.metrics.iter().enumerate() {
             t.push(
                 format!("{name}_mean"),
-                Column::Float(c.mean.iter().map(|row| finite(row[m])).collect()),
+                Column::floats(c.mean.iter().map(|row| finite(row[m]))),
             );
             t.push(
                 format!("{name}_ci95"),
-                Column::Float(c.ci95.iter().map(|row| finite(row[m])).collect()),
+                Column::floats(c.ci95.iter().map(|row| finite(row[m]))),
             );
         }
         t.push(
             "rank",
-            Column::UInt(self.rank.iter().map(|r| r.map(|r| r as u64)).collect()),
+            Column::uints(self.rank.iter().map(|r| r.map(|r| r as u64))),
         );
         t.push(
             "front",
-            Column::Bool(self.rank.iter().map(|r| Some(*r == Some(0))).collect()),
+            Column::bools(self.rank.iter().map(|r| Some(*r == Some(0)))),
         );
         t.push(
             "knee",
-            Column::Bool((0..c.len()).map(|i| Some(self.knee == Some(i))).collect()),
+            Column::bools((0..c.len()).map(|i| Some(self.knee == Some(i)))),
         );
         t
     }

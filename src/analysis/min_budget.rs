@@ -318,93 +318,76 @@ impl MinBudget {
         }
         t.push(
             "metric",
-            Column::Str(rows.iter().map(|_| Some(self.metric.clone())).collect()),
+            Column::texts(rows.iter().map(|_| Some(self.metric.as_str()))),
         );
         t.push(
             "budget",
-            Column::UInt(rows.iter().map(|r| Some(level(r).budget)).collect()),
+            Column::uints(rows.iter().map(|r| Some(level(r).budget))),
         );
         t.push(
             "n",
-            Column::UInt(rows.iter().map(|r| Some(level(r).n as u64)).collect()),
+            Column::uints(rows.iter().map(|r| Some(level(r).n as u64))),
         );
         let finite = |x: f64| x.is_finite().then_some(x);
         t.push(
             "mean",
-            Column::Float(rows.iter().map(|r| finite(level(r).mean)).collect()),
+            Column::floats(rows.iter().map(|r| finite(level(r).mean))),
         );
         t.push(
             "sd",
-            Column::Float(rows.iter().map(|r| finite(level(r).sd)).collect()),
+            Column::floats(rows.iter().map(|r| finite(level(r).sd))),
         );
         t.push(
             "p_vs_larger",
-            Column::Str(
-                rows.iter()
-                    .map(|r| {
-                        Some(
-                            level(r)
-                                .vs_larger
-                                .iter()
-                                .map(|v| format!("{}:{:.4e}", v.budget, v.p_value))
-                                .collect::<Vec<_>>()
-                                .join(" "),
-                        )
-                    })
-                    .collect(),
-            ),
+            Column::texts(rows.iter().map(|r| {
+                Some(
+                    level(r)
+                        .vs_larger
+                        .iter()
+                        .map(|v| format!("{}:{:.4e}", v.budget, v.p_value))
+                        .collect::<Vec<_>>()
+                        .join(" "),
+                )
+            })),
         );
         t.push(
             "beaten_by",
-            Column::Str(
-                rows.iter()
-                    .map(|r| {
-                        Some(
-                            level(r)
-                                .vs_larger
-                                .iter()
-                                .filter(|v| v.beats)
-                                .map(|v| v.budget.to_string())
-                                .collect::<Vec<_>>()
-                                .join(","),
-                        )
-                    })
-                    .collect(),
-            ),
+            Column::texts(rows.iter().map(|r| {
+                Some(
+                    level(r)
+                        .vs_larger
+                        .iter()
+                        .filter(|v| v.beats)
+                        .map(|v| v.budget.to_string())
+                        .collect::<Vec<_>>()
+                        .join(","),
+                )
+            })),
         );
         t.push(
             "min_p_vs_higher",
-            Column::Float(
-                rows.iter()
-                    .map(|r| {
-                        level(r)
-                            .vs_larger
-                            .iter()
-                            .filter(|v| v.higher_mean)
-                            .map(|v| v.p_value)
-                            .min_by(f64::total_cmp)
-                    })
-                    .collect(),
-            ),
+            Column::floats(rows.iter().map(|r| {
+                level(r)
+                    .vs_larger
+                    .iter()
+                    .filter(|v| v.higher_mean)
+                    .map(|v| v.p_value)
+                    .min_by(f64::total_cmp)
+            })),
         );
         t.push(
             "qualifies",
-            Column::Bool(rows.iter().map(|r| Some(level(r).qualifies)).collect()),
+            Column::bools(rows.iter().map(|r| Some(level(r).qualifies))),
         );
         t.push(
             "chosen",
-            Column::Bool(
-                rows.iter()
-                    .map(|&(g, l)| Some(self.groups[g].chosen == l))
-                    .collect(),
-            ),
+            Column::bools(rows.iter().map(|&(g, l)| Some(self.groups[g].chosen == l))),
         );
         t.push(
             "monotone",
-            Column::Bool(
+            Column::bools(
                 rows.iter()
-                    .map(|&(g, _)| Some(self.groups[g].not_monotone.is_empty()))
-                    .collect(),
+                    .map(|&(g, _)| Some(self.groups[g].not_monotone.is_empty())),
             ),
         );
         t

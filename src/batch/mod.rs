@@ -14,10 +14,36 @@ use rand_core::{Rng, SeedableRng};
 use rand_xoshiro::Xoshiro256PlusPlus;
 use rayon::prelude::*;
 
+use crate::env::tidy::Boxes;
 use crate::env::{Spec, StateId};
-use crate::expert::mb::{Model, Predecessors, dirty_words};
+use crate::expert::mb::{Model, Observable};
 use crate::params::ConfigError;
-use crate::params::Params;
+use crate::params::{HumanParams, Interaction, Params, RewardSource};
+use crate::schedule::{self, Plan, Schedule};
+
+/// Marker in the batch's per-run plan index for a run without a plan.
+const NO_PLAN: u16 = u16::MAX;
+
+/// The outcomes any run of the batch can observe: the union over the worlds of every plan, and
+/// the outcomes a nuisance produces where one can act (SPEC 10, 11.2). Exactly the environment's
+/// own table when no run changes anything.
+fn observable(spec: &Spec, plans: &[Plan]) -> Observable {
+    let mut worlds: Vec<&Spec> = vec![spec];
+    let mut extra = Vec::new();
+    for plan in plans {
+        for world in &plan.worlds {
+            worlds.push(world);
+            if let (true, Some(tables)) = (plan.nuisance, world.human.as_ref()) {
+                for (sa, &next) in tables.nuisance.iter().enumerate() {
+                    if next != crate::env::NO_NUISANCE {
+                        extra.push((sa, next));
+                    }
+                }
+            }
+        }
+    }
+    Observable::union(worlds, extra)
+}
 
 pub use step::step;
 
@@ -77,6 +103,10 @@ pub struct RunStats {
     pub entropy_sum: f64,
     /// Congratulations given.
     pub congratulations: u32,
+    /// Rewards given by the human (reward source `human`, SPEC 11.1).
+    pub rewards_given: u32,
+    /// Nuisances given (SPEC 11.2).
+    pub nuisances: u32,
     /// Takeovers given.
     pub takeovers: u32,
     /// Punishments given.
@@ -91,6 +121,12 @@ pub struct RunStats {
     pub vi_sweeps: u64,
     /// Value-iteration calls stopped by `vi_max_sweeps` before converging (babbling included).
     pub vi_capped: u64,
+    /// Experiment step of the first change of the run's schedule; 0 without changes.
+    pub first_change_step: u32,
+    /// Reward over the steps before the first change (steps < T).
+    pub reward_before_change: f64,
+    /// First rewarded experiment step at or after the first change; 0 if none.
+    pub first_reward_after_change: u32,
     /// Seconds spent simulating this run.
     pub wall_time_s: f64,
 }
@@ -98,7 +134,23 @@ pub struct RunStats {
 impl RunStats {
     /// Interactions of any type given.
     pub fn interactions(&self) -> u32 {
-        self.congratulations + self.takeovers + self.punishments
+        self.congratulations
+            + self.takeovers
+            + self.punishments
+            + self.rewards_given
+            + self.nuisances
+    }
+
+    /// Reward from the first change on (steps >= T); `None` without changes (SPEC 10).
+    pub fn reward_after_change(&self) -> Option<f64> {
+        (self.first_change_step > 0).then_some(self.total_reward - self.reward_before_change)
+    }
+
+    /// The first rewarded step at or after the first change T, minus T, plus 1; `None` without
+    /// changes or without such a reward (SPEC 10).
+    pub fn recovery_steps(&self) -> Option<u32> {
+        (self.first_change_step > 0 && self.first_reward_after_change > 0)
+            .then(|| self.first_reward_after_change - self.first_change_step + 1)
     }
 
     /// Total inference cost.
@@ -126,21 +178,51 @@ pub struct Checkpoint {
     pub interactions: u32,
 }
 
-/// Where a run is: its environment state and counters that are not results.
+/// Where a run is: its environment state, the regime it is in (world, goal, human: what a
+/// schedule may change, SPEC 10) and counters that are not results.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct Cursor {
     /// Current environment state.
     pub state: StateId,
+    /// The last arrival was terminal: this step is the reset step (SPEC 2.1, 10).
+    pub pending_reset: bool,
     /// Steps taken, babbling included.
     pub t: u64,
     /// Interactions the human may still give.
     pub budget_left: u32,
+    /// The run's world: an index into its plan's worlds (0 without a plan).
+    pub world: u16,
+    /// The next action of the run's plan to apply.
+    pub next_action: u16,
+    /// The rewarded, terminal state now.
+    pub goal: StateId,
+    /// The goal's reward now.
+    pub goal_reward: f64,
+    /// The human now (from the parameters, then as events change it).
+    pub human: HumanParams,
+    /// Who brings the goal's reward now (SPEC 11.1).
+    pub reward_source: RewardSource,
     /// Sum of P(MB) over decisions since the last checkpoint.
     pub window_p_mb: f64,
     /// Decisions since the last checkpoint.
     pub window_decisions: u32,
     /// Checkpoint rows written.
     pub checkpoints_written: u32,
+}
+
+impl Cursor {
+    /// A run at its start in world `spec` with `params`, in state `state`.
+    pub fn start(spec: &Spec, params: &Params, state: StateId) -> Cursor {
+        Cursor {
+            state,
+            budget_left: params.human.budget,
+            goal: spec.goal,
+            goal_reward: spec.goal_reward,
+            human: params.human,
+            reward_source: params.reward_source,
+            ..Cursor::default()
+        }
+    }
 }
 
 /// Number of checkpoint rows of a run.
@@ -159,6 +241,8 @@ pub fn checkpoint_count(params: &Params) -> usize {
 pub struct Batch {
     spec: Arc<Spec>,
     configs: Vec<RunConfig>,
+    plans: Arc<Vec<Plan>>,
+    run_plan: Vec<u16>,
     window_cap: usize,
     q_mf: Array3<f64>,
     q_mb: Array3<f64>,
@@ -173,11 +257,12 @@ pub struct Batch {
     ring_pos: Array2<u16>,
     outcome_count: Array2<u16>,
     outcome_reward: Array2<f64>,
+    outcome_terminal: Array2<bool>,
     known: Array2<bool>,
     vi_best: Array2<f64>,
     vi_dirty: Array2<u64>,
     vi_terms: Vec<u64>,
-    preds: Arc<Predecessors>,
+    obs: Arc<Observable>,
     scratch: Array2<f64>,
     rngs: Vec<Xoshiro256PlusPlus>,
     cursors: Vec<Cursor>,
@@ -216,14 +301,66 @@ pub struct RunView<'a> {
     pub stats: &'a mut RunStats,
     /// The run's checkpoint rows.
     pub series: &'a mut [Checkpoint],
+    /// The run's schedule of changes, compiled; `None` for a run without changes in the
+    /// batch's own environment.
+    pub plan: Option<&'a Plan>,
 }
 
 impl Batch {
     /// Allocates and initialises every run (SPEC 3.3: Q = q_init, uniform averaged distributions,
-    /// zero costs, empty model) and places each in its initial state.
+    /// zero costs, empty model) and places each in its initial state. No run changes anything
+    /// during the run (but a `tidy1` run may have its own box assignment).
     pub fn new(spec: Arc<Spec>, configs: Vec<RunConfig>) -> Result<Batch, ConfigError> {
+        Batch::with_schedules(spec, configs, &[], &[])
+    }
+
+    /// [`Batch::new`] where run `r` follows `schedules[run_schedule[r]]` (SPEC 10); an empty
+    /// `run_schedule` means no schedule for any run. Every schedule is checked against the task
+    /// and each run's parameters, and every world it names is loaded, before anything runs.
+    pub fn with_schedules(
+        spec: Arc<Spec>,
+        configs: Vec<RunConfig>,
+        schedules: &[Schedule],
+        run_schedule: &[usize],
+    ) -> Result<Batch, ConfigError> {
         for config in &configs {
             config.params.validate_for(&spec)?;
+        }
+        assert!(run_schedule.is_empty() || run_schedule.len() == configs.len());
+        // One plan per distinct (schedule, what compiling depends on in the parameters).
+        let none = Schedule::default();
+        let mut plans: Vec<Plan> = Vec::new();
+        let mut keys: Vec<(usize, Boxes, u32, crate::params::Controller, u64, bool)> = Vec::new();
+        let mut run_plan = Vec::with_capacity(configs.len());
+        for (r, config) in configs.iter().enumerate() {
+            let p = &config.params;
+            let which = run_schedule.get(r).copied();
+            let schedule = which.map_or(&none, |i| &schedules[i]);
+            let nuisance = p.human.interaction == Interaction::Nuisance;
+            if schedule.is_empty() && p.boxes == Boxes::RGB && !nuisance {
+                run_plan.push(NO_PLAN);
+                continue;
+            }
+            let key = (
+                which.unwrap_or(usize::MAX),
+                p.boxes,
+                p.steps,
+                p.controller,
+                p.human.zeta.to_bits(),
+                nuisance,
+            );
+            let index = match keys.iter().position(|k| *k == key) {
+                Some(i) => i,
+                None => {
+                    plans.push(schedule::compile(&spec, schedule, p)?);
+                    keys.push(key);
+                    plans.len() - 1
+                }
+            };
+            if index >= usize::from(NO_PLAN) {
+                return Err(ConfigError::TooManySchedules);
+            }
+            run_plan.push(index as u16);
         }
         let runs = configs.len();
         let (n_s, n_a) = (spec.n_states, spec.n_actions);
@@ -233,7 +370,9 @@ impl Batch {
             .map(|c| c.params.window_n as usize)
             .max()
             .unwrap_or(1);
-        let n_outcomes = spec.outcome_state.len();
+        // The MB model's index space: every outcome a run of the batch can observe (SPEC 10).
+        let obs = Arc::new(observable(&spec, &plans));
+        let n_outcomes = obs.len();
         let mut q_mf = Array3::zeros((runs, n_s, n_a));
         let mut q_mb = Array3::zeros((runs, n_s, n_a));
         for (r, config) in configs.iter().enumerate() {
@@ -250,10 +389,13 @@ impl Batch {
         let cursors = configs
             .iter()
             .zip(rngs.iter_mut())
-            .map(|(config, rng)| Cursor {
-                state: initial_state(&spec, rng),
-                budget_left: config.params.human.budget,
-                ..Cursor::default()
+            .zip(&run_plan)
+            .map(|((config, rng), &plan)| {
+                let world = plans
+                    .get(usize::from(plan))
+                    .map_or(&*spec, |p| &*p.worlds[0]);
+                let state = initial_state(world, rng);
+                Cursor::start(world, &config.params, state)
             })
             .collect();
         let mut series_start = Vec::with_capacity(runs + 1);
@@ -276,11 +418,12 @@ impl Batch {
             ring_pos: Array2::zeros((runs, pairs)),
             outcome_count: Array2::zeros((runs, n_outcomes)),
             outcome_reward: Array2::zeros((runs, n_outcomes)),
+            outcome_terminal: Array2::from_elem((runs, n_outcomes), false),
             known: Array2::from_elem((runs, n_s), false),
             vi_best: Array2::from_elem((runs, n_s), f64::NAN),
-            vi_dirty: Array2::zeros((runs, dirty_words(&spec))),
+            vi_dirty: Array2::zeros((runs, obs.dirty_words())),
             vi_terms: vec![0; runs],
-            preds: Arc::new(Predecessors::new(&spec)),
+            obs,
             scratch: Array2::zeros((runs, 2 * n_a)),
             rngs,
             cursors,
@@ -288,8 +431,17 @@ impl Batch {
             series: vec![Checkpoint::default(); *series_start.last().unwrap()],
             series_start,
             configs,
+            plans: Arc::new(plans),
+            run_plan,
             spec,
         })
+    }
+
+    /// The canonical text of run `r`'s schedule ("" without changes, SPEC 10).
+    pub fn schedule_text(&self, r: usize) -> &str {
+        self.plans
+            .get(usize::from(self.run_plan[r]))
+            .map_or("", |p| p.text.as_str())
     }
 
     /// Bytes of state the batch holds, all runs together: every per-run array, RNG, cursor,
@@ -318,6 +470,7 @@ impl Batch {
             ("ring_pos", bytes(&self.ring_pos)),
             ("outcome_count", bytes(&self.outcome_count)),
             ("outcome_reward", bytes(&self.outcome_reward)),
+            ("outcome_terminal", bytes(&self.outcome_terminal)),
             ("known", bytes(&self.known)),
             ("vi_best", bytes(&self.vi_best)),
             ("vi_dirty", bytes(&self.vi_dirty)),
@@ -329,6 +482,7 @@ impl Batch {
             ("series", size_of_val(self.series.as_slice())),
             ("series_start", size_of_val(self.series_start.as_slice())),
             ("configs", size_of_val(self.configs.as_slice())),
+            ("run_plan", size_of_val(self.run_plan.as_slice())),
         ]
     }
 
@@ -406,9 +560,8 @@ impl Batch {
                 if lens[sa] == 0 {
                     continue;
                 }
-                for o in spec.outcomes(sa) {
-                    t[[s, a, spec.outcome_state[o] as usize]] =
-                        f64::from(counts[o]) / f64::from(lens[sa]);
+                for o in self.obs.outcomes(sa) {
+                    t[[s, a, self.obs.next_state(o)]] = f64::from(counts[o]) / f64::from(lens[sa]);
                 }
             }
         }
@@ -445,7 +598,7 @@ impl Batch {
     fn views(&mut self) -> Vec<(&Params, RunView<'_>)> {
         let (n_s, n_a) = (self.spec.n_states, self.spec.n_actions);
         let sa = n_s * n_a;
-        let n_o = self.spec.outcome_state.len();
+        let n_o = self.obs.len();
         fn rows<T>(a: &mut [T], len: usize) -> std::slice::ChunksMut<'_, T> {
             a.chunks_mut(len.max(1))
         }
@@ -471,6 +624,12 @@ impl Batch {
             self.outcome_reward.as_slice_mut().expect("standard layout"),
             n_o,
         );
+        let mut terminal = rows(
+            self.outcome_terminal
+                .as_slice_mut()
+                .expect("standard layout"),
+            n_o,
+        );
         let mut known = rows(self.known.as_slice_mut().expect("standard layout"), n_s);
         let mut vi_best = rows(self.vi_best.as_slice_mut().expect("standard layout"), n_s);
         let words = self.vi_dirty.ncols();
@@ -479,12 +638,13 @@ impl Batch {
             words,
         );
         let mut vi_terms = self.vi_terms.iter_mut();
-        let preds: &Predecessors = &self.preds;
+        let obs: &Observable = &self.obs;
         let mut scratch = rows(
             self.scratch.as_slice_mut().expect("standard layout"),
             2 * n_a,
         );
         let mut series_rest: &mut [Checkpoint] = &mut self.series;
+        let plans: &[Plan] = &self.plans;
         let mut views = Vec::with_capacity(self.configs.len());
         for (((config, rng), cursor), (stats, r)) in self
             .configs
@@ -511,17 +671,19 @@ impl Batch {
                     ring_pos: ring_pos.next().expect("one row per run"),
                     count: count.next().expect("one row per run"),
                     reward: reward.next().expect("one row per run"),
+                    terminal: terminal.next().expect("one row per run"),
                     known: known.next().expect("one row per run"),
                     best: vi_best.next().expect("one row per run"),
                     dirty: vi_dirty.next().expect("one row per run"),
                     active_terms: vi_terms.next().expect("one per run"),
-                    preds,
+                    obs,
                 },
                 scratch: scratch.next().expect("one row per run"),
                 rng,
                 cursor,
                 stats,
                 series,
+                plan: plans.get(usize::from(self.run_plan[r])),
             };
             views.push((&config.params, view));
         }

@@ -3,16 +3,22 @@
 //! Random draws, in this order and only when needed: the human's attentiveness at a takeover
 //! opportunity; the MC's draw (`rnd`, softmax selection, or an argmax tie); the action; the
 //! environment's outcome (pairs with several outcomes only); the human's attentiveness at a
-//! congratulation or punishment opportunity. A reset step draws an initial state only when the
-//! environment has several.
+//! nuisance opportunity (SPEC 11.2); at a human-reward opportunity (11.1); at a congratulation
+//! or punishment opportunity. A reset step draws an initial state only when the environment has
+//! several.
+//!
+//! The events of the run's schedule due at an experiment step apply first, before anything of
+//! that step (SPEC 10); from then on the step reads the world, goal and human from the cursor.
 
 use std::time::Instant;
 
 use super::{Checkpoint, RunView, initial_state, uniform};
-use crate::env::{NO_TAKEOVER, Spec};
+use crate::env::Spec;
 use crate::expert::{draw, ema, ema_into, mf, softmax_biased};
+use crate::human;
 use crate::meta;
-use crate::params::{CostModel, Interaction, Params};
+use crate::params::{CongratulationEffect, CostModel, Interaction, Params, RewardSource};
+use crate::schedule::{Action, HumanChange, Plan};
 
 /// Advances one run by one step: a babbling step while `cursor.t < babbling`, then an experiment
 /// step. At the end of babbling the environment is reset to an initial state (not a step).
@@ -27,9 +33,16 @@ pub fn step(spec: &Spec, params: &Params, window_cap: usize, run: &mut RunView<'
     } else {
         (run.cursor.t - u64::from(params.babbling)) as u32
     };
+    let plan = run.plan;
+    if let Some(plan) = plan {
+        apply_due(plan, params, run, t_exp);
+    }
+    let spec = plan.map_or(spec, |p| &*p.worlds[usize::from(run.cursor.world)]);
 
-    if s == spec.goal as usize {
-        // 1. The reset step: time passes, nothing is decided or learned (SPEC 2.1).
+    if run.cursor.pending_reset {
+        // 1. The reset step: time passes, nothing is decided or learned (SPEC 2.1). Whether
+        // this is one was decided by the previous arrival, even if the goal has since moved.
+        run.cursor.pending_reset = false;
         run.cursor.state = initial_state(spec, run.rng);
     } else {
         act(spec, params, window_cap, run, s, babbling, t_exp);
@@ -37,6 +50,7 @@ pub fn step(spec: &Spec, params: &Params, window_cap: usize, run: &mut RunView<'
 
     if babbling && run.cursor.t == u64::from(params.babbling) {
         // End of babbling: back to the start; a pending reset step is dropped (SPEC 7).
+        run.cursor.pending_reset = false;
         run.cursor.state = initial_state(spec, run.rng);
     }
     if !babbling {
@@ -56,26 +70,22 @@ fn act(
     t_exp: u32,
 ) {
     let n_a = spec.n_actions;
-    let human = &params.human;
+    let human = run.cursor.human;
+    let human = &human;
     let human_active = !babbling && run.cursor.budget_left > 0;
 
     // 2. Takeover.
-    let mut action = None;
-    if human_active && human.interaction == Interaction::Takeover {
-        let put = spec
-            .human
-            .as_ref()
-            .map_or(NO_TAKEOVER, |h| h.takeover_action[s]);
-        if put != NO_TAKEOVER {
-            if uniform(run.rng) >= human.forget_prob {
-                action = Some(put as usize);
-                run.stats.takeovers += 1;
-                spend_budget(run, t_exp);
-            } else {
-                run.stats.forgotten += 1;
-            }
-        }
-    }
+    let tables = spec.human.as_ref();
+    let action = human::takeover(
+        human,
+        tables,
+        human_active,
+        s,
+        &mut run.cursor.budget_left,
+        run.stats,
+        t_exp,
+        run.rng,
+    );
     let a = match action {
         Some(a) => a,
         None => decide(spec, params, run, s, babbling),
@@ -89,47 +99,66 @@ fn act(
     } else {
         spec.pick_outcome(sa, uniform(run.rng))
     };
-    let next = spec.outcome_state[o] as usize;
-    let reward = if babbling {
+    let mut next = spec.outcome_state[o] as usize;
+    // 11.2: a nuisance human undoes a relevant action before anything learns from it.
+    if let Some(undone) = human::nuisance(
+        human,
+        tables,
+        human_active,
+        sa,
+        &mut run.cursor.budget_left,
+        run.stats,
+        t_exp,
+        run.rng,
+    ) {
+        next = undone;
+    }
+    let terminal = next == run.cursor.goal as usize;
+    let mut reward = if babbling || !terminal {
         0.0
     } else {
-        spec.reward(next as u32)
+        run.cursor.goal_reward
     };
+    // 11.1: where only the human brings reward, an arrival in the goal is an opportunity.
+    if terminal && !babbling && run.cursor.reward_source == RewardSource::Human {
+        reward = human::reward(
+            human,
+            reward,
+            &mut run.cursor.budget_left,
+            run.stats,
+            t_exp,
+            run.rng,
+        );
+    }
 
     // 7. Feedback: G(s, a) is set by an attentive human with budget, reset otherwise (Eq. 8).
-    let mut g = 0;
-    if human_active && run.cursor.budget_left > 0 {
-        let tables = spec.human.as_ref();
-        let opportunity = match human.interaction {
-            Interaction::Congratulation => tables.is_some_and(|h| h.relevant[sa]),
-            Interaction::Punishment => tables.is_some_and(|h| h.error[sa]),
-            _ => false,
-        };
-        if opportunity {
-            if uniform(run.rng) >= human.forget_prob {
-                g = 1;
-                if human.interaction == Interaction::Congratulation {
-                    run.stats.congratulations += 1;
-                } else {
-                    run.stats.punishments += 1;
-                }
-                spend_budget(run, t_exp);
-            } else {
-                run.stats.forgotten += 1;
-            }
-        }
-    }
-    run.bonus[sa] = g;
+    let g = human::feedback(
+        human,
+        tables,
+        human_active,
+        sa,
+        &mut run.cursor.budget_left,
+        run.stats,
+        t_exp,
+        run.rng,
+    );
+    // 11.3: a congratulation that shapes the reward is learned, not shown to the softmax.
+    let shaped = g == 1
+        && human.interaction == Interaction::Congratulation
+        && params.congratulation_effect == CongratulationEffect::Reward;
+    let learned = if shaped { reward + human.zeta } else { reward };
+    run.bonus[sa] = if shaped { 0 } else { g };
 
-    // 8. Learning, by every expert the controller runs.
-    let terminal = next == spec.goal as usize;
+    // 8. Learning, by every expert the controller runs. The arrival is terminal when it is the
+    // goal at this time (SPEC 10): both experts learn that from the transition itself.
+    run.cursor.pending_reset = terminal;
     if params.controller.runs_mf() {
         mf::learn(
             run.q_mf,
             n_a,
             s,
             a,
-            reward,
+            learned,
             next,
             terminal,
             params.alpha_mf,
@@ -137,8 +166,15 @@ fn act(
         );
     }
     if params.controller.runs_mb() {
-        run.model
-            .learn(spec, window_cap, params.window_n as usize, s, a, o, reward);
+        run.model.learn(
+            window_cap,
+            params.window_n as usize,
+            s,
+            a,
+            next,
+            learned,
+            terminal,
+        );
     }
 
     if !babbling {
@@ -146,6 +182,9 @@ fn act(
         if reward != 0.0 {
             if run.stats.first_reward_step == 0 {
                 run.stats.first_reward_step = t_exp;
+            }
+            if run.stats.first_change_step > 0 && run.stats.first_reward_after_change == 0 {
+                run.stats.first_reward_after_change = t_exp;
             }
             if t_exp > params.steps - params.steps / 10 {
                 run.stats.reward_last10 += reward;
@@ -195,7 +234,6 @@ fn decide(spec: &Spec, params: &Params, run: &mut RunView<'_>, s: usize, babblin
         let started = wallclock.then(Instant::now);
         // Only value iteration writes the MB's Q table, so its cached row maxima stay valid.
         let report = run.model.value_iteration_cached(
-            spec,
             run.q_mb,
             params.gamma_mb,
             params.vi_epsilon,
@@ -216,11 +254,7 @@ fn decide(spec: &Spec, params: &Params, run: &mut RunView<'_>, s: usize, babblin
     }
 
     // 5. Decision: each expert the controller runs computes its (biased) softmax and folds it in.
-    let bonus = match params.human.interaction {
-        Interaction::Congratulation => params.human.zeta,
-        Interaction::Punishment => -params.human.zeta,
-        _ => 0.0,
-    };
+    let bonus = human::bonus_weight(&run.cursor.human, params.congratulation_effect);
     let (p_mf, p_mb) = run.scratch.split_at_mut(n_a);
     let g = &run.bonus[row.clone()];
     if controller.runs_mf() {
@@ -249,10 +283,47 @@ fn decide(spec: &Spec, params: &Params, run: &mut RunView<'_>, s: usize, babblin
     a
 }
 
-fn spend_budget(run: &mut RunView<'_>, t_exp: u32) {
-    run.cursor.budget_left -= 1;
-    if run.cursor.budget_left == 0 {
-        run.stats.budget_exhausted_step = t_exp;
+/// Applies the actions of `plan` due at experiment step `t_exp` (none while babbling), in order.
+#[inline]
+fn apply_due(plan: &Plan, params: &Params, run: &mut RunView<'_>, t_exp: u32) {
+    while let Some(&(step, action)) = plan.actions.get(usize::from(run.cursor.next_action)) {
+        if step != t_exp {
+            break;
+        }
+        if run.cursor.next_action == 0 {
+            run.stats.first_change_step = t_exp;
+            run.stats.reward_before_change = run.stats.total_reward;
+        }
+        run.cursor.next_action += 1;
+        let cursor = &mut *run.cursor;
+        match action {
+            Action::World { world, goal } => {
+                cursor.world = world;
+                cursor.goal = goal;
+            }
+            Action::Goal { state, reward } => {
+                cursor.goal = state;
+                if let Some(r) = reward {
+                    cursor.goal_reward = r;
+                }
+            }
+            Action::Human(change) => match change {
+                HumanChange::Interaction(i) => cursor.human.interaction = i,
+                HumanChange::Budget(n) => cursor.budget_left = n,
+                HumanChange::Forget(p) => cursor.human.forget_prob = p,
+                HumanChange::Zeta(z) => cursor.human.zeta = z,
+                HumanChange::Profile(p) => {
+                    if let Some(h) = p.human(params.controller) {
+                        cursor.human = h;
+                        cursor.budget_left = h.budget;
+                    }
+                    if let Some(source) = p.reward_source() {
+                        cursor.reward_source = source;
+                    }
+                }
+                HumanChange::RewardSource(source) => cursor.reward_source = source,
+            },
+        }
     }
 }
 

@@ -41,7 +41,8 @@ pub struct ParetoArgs {
     /// controlling expert, lower is better).
     #[arg(long, value_delimiter = ',', default_value = DEFAULT_OBJECTIVES, value_parser = Objective::parse)]
     pub objectives: Vec<Objective>,
-    /// Folder for pareto.parquet, pareto.svg and pareto.png (default: the dataset's folder).
+    /// Folder for pareto.parquet, pareto.svg and pareto.png (default: analysis/ in the dataset's
+    /// folder, beside the data files, never among them).
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Write no figure.
@@ -80,7 +81,7 @@ pub struct MinBudgetArgs {
     /// Significance level of the one-sided tests (SPEC 9: 0.05).
     #[arg(long, default_value_t = DEFAULT_ALPHA)]
     pub alpha: f64,
-    /// Folder for min_budget.parquet (default: the dataset's folder).
+    /// Folder for min_budget.parquet (default: analysis/ in the dataset's folder).
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Also print every budget of every group (mean, sd, the budgets that beat it).
@@ -105,7 +106,11 @@ fn write_table(table: &Table, folder: &Path, name: &str) -> Result<PathBuf, Fail
     let batch = table
         .to_record_batch()
         .map_err(|e| runtime(anyhow!("internal error building {name}: {e}")))?;
-    let metadata = crate::output::metadata([("mbmf_command", crate::output::command_line())]);
+    let schema = match name {
+        "pareto.parquet" => crate::output::provenance::PARETO_SCHEMA,
+        _ => crate::output::provenance::MIN_BUDGET_SCHEMA,
+    };
+    let metadata = crate::output::provenance(schema, &crate::output::Context::default());
     crate::output::write_parquet(&folder.join(name), &batch, metadata).map_err(runtime)
 }
 

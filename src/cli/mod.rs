@@ -78,7 +78,7 @@ pub fn write_stdout(text: std::fmt::Arguments<'_>) {
 #[derive(Debug, Parser)]
 #[command(
     name = "mbmf",
-    version,
+    version = crate::output::provenance::LONG_VERSION,
     about,
     long_about = None,
     help_expected = true,
@@ -107,6 +107,10 @@ pub enum Command {
     ///
     /// Example: mbmf sweep sweeps/kappa.toml --out out/kappa
     Sweep(Box<sweep::SweepArgs>),
+    /// Merge a finished sweep dataset's parts into large files, atomically.
+    ///
+    /// Example: mbmf compact out/kappa
+    Compact(sweep::CompactArgs),
     /// Pareto front over configurations of a dataset (reward, cost, learning quality).
     Pareto(analysis::ParetoArgs),
     /// Pairwise Wilcoxon-Mann-Whitney tests of a metric between groups of runs.
@@ -142,6 +146,7 @@ pub fn main_with_args(args: impl IntoIterator<Item = std::ffi::OsString>) -> Res
     match &cli.command {
         Command::Run(args) => run::run(args),
         Command::Sweep(args) => sweep::command(args),
+        Command::Compact(args) => sweep::compact(args),
         Command::Pareto(args) => analysis::pareto(args),
         Command::Stats(args) => analysis::stats(args),
         Command::MinBudget(args) => analysis::min_budget(args),

@@ -10,9 +10,13 @@ use clap::Args;
 use super::args::{HumanArgs, ModelArgs, batch_size, count, explain, load_task, runs_count, seed};
 use super::{Failure, progress, runtime, usage};
 use crate::batch::{Batch, RunConfig};
+use crate::env::tidy::Boxes;
 use crate::output;
-use crate::params::{Controller, Params, default_steps};
+use crate::params::{
+    CongratulationEffect, Controller, Params, Profile, RewardSource, default_steps,
+};
 use crate::pipeline;
+use crate::schedule::{self, Schedule};
 
 /// `mbmf run`.
 #[derive(Debug, Clone, Args)]
@@ -53,6 +57,9 @@ pub struct RunArgs {
     /// Output folder for runs.parquet and series.parquet (created if needed).
     #[arg(long, default_value = "out/run")]
     pub out: PathBuf,
+    /// Replace the results of an earlier run in --out (refused without it).
+    #[arg(long)]
+    pub force: bool,
     /// Runs simulated at once, >= 1 (lowered if a batch would not fit in memory); results do
     /// not depend on it.
     #[arg(long, default_value_t = 4096, value_parser = batch_size, allow_negative_numbers = true)]
@@ -66,6 +73,22 @@ pub struct RunArgs {
     /// The simulated human.
     #[command(flatten)]
     pub human: HumanArgs,
+    /// A change during the run at experiment step STEP (repeatable; events at one step apply in
+    /// the order given): world=json:PATH, goal=S[:R], delete=S-T,..., boxes=PERM (tidy1),
+    /// interaction=, budget= (left), forget=, zeta=, profile=, reward_source=.
+    /// Example: --change 1601:goal=34 --change 1601:world=json:PATH
+    #[arg(long = "change", value_name = "STEP:KEY=VALUE")]
+    pub change: Vec<String>,
+    /// tidy1's box assignment for the whole run, a permutation of rgb (position i: the box of
+    /// cube i). Default rgb.
+    #[arg(long, value_parser = Boxes::parse)]
+    pub boxes: Option<Boxes>,
+    /// Who brings the goal's reward. Default environment.
+    #[arg(long, value_enum)]
+    pub reward_source: Option<RewardSource>,
+    /// How a congratulation acts: bias (Eq. 8) or reward (shaping). Default bias.
+    #[arg(long, value_enum)]
+    pub congratulation_effect: Option<CongratulationEffect>,
 }
 
 /// Builds the configurations of `mbmf run`: for each controller, `runs` runs with consecutive
@@ -84,6 +107,18 @@ pub fn run_configs(args: &RunArgs) -> Result<Vec<RunConfig>> {
             ..Params::default()
         };
         args.model.apply(&mut params);
+        if let Some(source) = args.human.profile.and_then(Profile::reward_source) {
+            params.reward_source = source;
+        }
+        if let Some(source) = args.reward_source {
+            params.reward_source = source;
+        }
+        if let Some(effect) = args.congratulation_effect {
+            params.congratulation_effect = effect;
+        }
+        if let Some(b) = args.boxes {
+            params.boxes = b;
+        }
         params.validate().map_err(explain)?;
         for r in 0..args.runs {
             configs.push(RunConfig {
@@ -107,14 +142,20 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
     .map_err(usage)?;
     let spec = Arc::new(spec);
     let configs = run_configs(args).map_err(usage)?;
+    let schedule = Schedule::from_events(args.change.iter().map(String::as_str))
+        .map_err(|e| usage(anyhow!("--change: {e}")))?;
     // Runs of one controller share their parameters: check the first of each.
     for c in configs.iter().step_by(args.runs.max(1) as usize) {
         c.params
             .validate_for(&spec)
             .map_err(|e| usage(explain(e)))?;
+        schedule::compile(&spec, &schedule, &c.params)
+            .map_err(|e| usage(anyhow!("--change: {e}")))?;
     }
+    let schedules = [schedule];
+    let run_schedule = vec![0; configs.len()];
     let batch_size = pipeline::plan_batch_size(&spec, &configs, args.batch_size).map_err(usage)?;
-    let [runs_target, series_target] = prepare_out(&args.out)?;
+    let [runs_target, series_target] = prepare_out(&args.out, args.force)?;
     let staging = Staging::create(&args.out)?;
     if batch_size < args.batch_size.min(configs.len()) && !args.quiet {
         eprintln!(
@@ -123,29 +164,41 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
             args.batch_size
         );
     }
-    let metadata = output::metadata([
-        ("mbmf_command", output::command_line()),
-        ("master_seed", args.seed.to_string()),
-    ]);
-    let mut tables = pipeline::Tables::new(&staging.0, metadata);
+    let [runs_meta, series_meta] = output::pair_metadata(args.seed);
+    let mut runs_sink = output::ParquetSink::new(&staging.0.join("runs.parquet"), runs_meta);
+    let mut series_sink = output::ParquetSink::new(&staging.0.join("series.parquet"), series_meta);
     let bar = progress::bar(pipeline::agent_steps(&configs), args.quiet, false);
     let mut summary = Summary::default();
     let started = std::time::Instant::now();
-    pipeline::simulate(
+    let per = u64::from(args.runs);
+    pipeline::simulate_with_schedules(
         &spec,
         &configs,
+        &schedules,
+        &run_schedule,
         batch_size,
         |n| bar.inc(n),
         |batch: &Batch| {
-            tables.write(batch)?;
+            runs_sink.write(&output::with_run_indices(output::runs_batch(batch)?, per)?)?;
+            series_sink.write(&output::with_run_indices(
+                output::series_batch(batch)?,
+                per,
+            )?)?;
             summary.add(batch);
             Ok::<(), anyhow::Error>(())
         },
     )
     .map_err(runtime)?;
     bar.finish_and_clear();
-    let [runs_staged, series_staged] = tables.finish().map_err(runtime)?;
-    staging.commit(&[(runs_staged, &runs_target), (series_staged, &series_target)])?;
+    let runs_staged = runs_sink.finish().map_err(runtime)?;
+    let series_staged = series_sink.finish().map_err(runtime)?;
+    output::atomic::commit_pair(
+        (&series_staged, &series_target),
+        (&runs_staged, &runs_target),
+    )
+    .with_context(|| format!("cannot move the results into {}", args.out.display()))
+    .map_err(runtime)?;
+    drop(staging);
     let (runs_path, series_path) = (runs_target, series_target);
     if !args.quiet {
         out!(
@@ -164,7 +217,7 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
 /// Checks and creates the output folder of `mbmf run`; returns the paths of runs.parquet and
 /// series.parquet. A file in the way is a usage error (2); a folder that cannot be created is a
 /// runtime failure (1). Both are found before anything is simulated.
-fn prepare_out(out: &Path) -> Result<[PathBuf; 2], Failure> {
+fn prepare_out(out: &Path, force: bool) -> Result<[PathBuf; 2], Failure> {
     // The nearest existing ancestor (the folder itself included) must be a folder.
     for ancestor in out.ancestors().filter(|a| !a.as_os_str().is_empty()) {
         if let Ok(metadata) = std::fs::metadata(ancestor) {
@@ -193,13 +246,25 @@ fn prepare_out(out: &Path) -> Result<[PathBuf; 2], Failure> {
             )));
         }
     }
+    let earlier: Vec<String> = targets
+        .iter()
+        .filter(|t| t.exists())
+        .map(|t| t.display().to_string())
+        .collect();
+    if !earlier.is_empty() && !force {
+        return Err(usage(anyhow!(
+            "--out {}: it holds the results of an earlier run ({}); pass --force to replace \
+             them, or choose another --out",
+            out.display(),
+            earlier.join(", ")
+        )));
+    }
     Ok(targets)
 }
 
 /// A private folder inside the output folder where both Parquet files are written; they are
-/// moved into place only when both are complete, so a failure (a full disk, a kill) never
-/// leaves a runs.parquet without its series.parquet, nor a partial file under either name. The
-/// folder and anything left in it are removed when the value is dropped.
+/// moved into place as one commit ([`output::atomic::commit_pair`]) only when both are
+/// complete. The folder and anything left in it are removed when the value is dropped.
 struct Staging(PathBuf);
 
 impl Staging {
@@ -211,22 +276,6 @@ impl Staging {
             .with_context(|| format!("cannot write into output folder {}", out.display()))
             .map_err(runtime)?;
         Ok(Staging(dir))
-    }
-
-    /// Moves each finished file to its target. If a move fails, the targets already moved are
-    /// removed too, so no mismatched pair stays behind.
-    fn commit(self, files: &[(PathBuf, &PathBuf)]) -> Result<(), Failure> {
-        for (i, (from, to)) in files.iter().enumerate() {
-            if let Err(e) = std::fs::rename(from, to) {
-                for (_, moved) in &files[..i] {
-                    let _ = std::fs::remove_file(moved);
-                }
-                return Err(runtime(
-                    anyhow!(e).context(format!("cannot move the results to {}", to.display())),
-                ));
-            }
-        }
-        Ok(())
     }
 }
 

@@ -8,7 +8,7 @@ use anyhow::anyhow;
 use clap::Args;
 
 use super::{Failure, progress, runtime, usage};
-use crate::sweep::{Event, Options, Shard, Sweep, describe_plan, execute, runner, shard};
+use crate::sweep::{Event, Options, Shard, Sweep, describe_plan, execute, runner, shard, store};
 
 const EXAMPLES: &str = "\
 Examples:
@@ -152,5 +152,38 @@ pub fn command(args: &SweepArgs) -> Result<(), Failure> {
     if !args.quiet {
         outln!("{}", report.line());
     }
+    Ok(())
+}
+
+/// `mbmf compact`.
+#[derive(Debug, Clone, Args)]
+pub struct CompactArgs {
+    /// A finished sweep dataset (the --out folder of mbmf sweep).
+    pub dir: PathBuf,
+    /// Runs per merged file (parts with different text parameters are never merged, so a
+    /// filter on controller or interaction still skips files).
+    #[arg(long, default_value_t = 50_000, value_name = "N")]
+    pub runs_per_file: u64,
+}
+
+/// Runs `mbmf compact`: merges the parts of a finished dataset into large files, swapped in at
+/// once.
+pub fn compact(args: &CompactArgs) -> Result<(), Failure> {
+    if args.runs_per_file == 0 {
+        return Err(usage(anyhow!(
+            "--runs-per-file 0: give at least 1 run per file"
+        )));
+    }
+    let done = store::compact(&args.dir, args.runs_per_file).map_err(|e| match &e {
+        store::StoreError::Io { .. } | store::StoreError::Output(_) => runtime(e),
+        _ => usage(e),
+    })?;
+    outln!(
+        "{}: {} runs in {} part(s) per table, {} before",
+        args.dir.display(),
+        done.runs,
+        done.parts_after,
+        done.parts_before
+    );
     Ok(())
 }

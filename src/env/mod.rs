@@ -18,6 +18,9 @@ pub type StateId = u32;
 /// Marker in [`HumanTables::takeover_action`] for states where the human has nothing to put.
 pub const NO_TAKEOVER: u8 = u8::MAX;
 
+/// Marker in [`HumanTables::nuisance`] for pairs a nuisance human leaves alone.
+pub const NO_NUISANCE: StateId = StateId::MAX;
+
 /// What the simulated human needs to know about a task (SPEC 5). Only the tidy tasks define it.
 #[derive(Debug, Clone, PartialEq)]
 pub struct HumanTables {
@@ -28,6 +31,9 @@ pub struct HumanTables {
     pub error: Vec<bool>,
     /// Per state: the human's put when the robot holds a cube, or [`NO_TAKEOVER`].
     pub takeover_action: Vec<u8>,
+    /// Per `sa`: the state a nuisance human leaves after the relevant action `sa` (the cube
+    /// taken back out onto the table, SPEC 11.2), or [`NO_NUISANCE`].
+    pub nuisance: Vec<StateId>,
 }
 
 /// A compiled, validated, read-only tabular environment.

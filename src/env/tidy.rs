@@ -6,7 +6,9 @@
 
 use std::collections::{HashMap, VecDeque};
 
-use super::{HumanTables, NO_TAKEOVER, Spec, StateId};
+use serde::{Deserialize, Serialize};
+
+use super::{HumanTables, NO_NUISANCE, NO_TAKEOVER, Spec, StateId};
 
 /// Number of cubes (red, green, blue).
 pub const N_CUBES: usize = 3;
@@ -16,6 +18,83 @@ pub const N_ACTIONS: usize = 7;
 pub const PUT_ON_TABLE: usize = 6;
 
 const COLOURS: [&str; N_CUBES] = ["R", "G", "B"];
+
+/// Where each cube belongs in task 1 (SPEC 10): position i is the box of cube i, written as a
+/// permutation of `rgb` (`brg` puts the red cube in the blue box, the green cube in the red box,
+/// the blue cube in the green box). State ids do not depend on it; the goal, the human's relevant
+/// actions, errors and takeover puts do.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(into = "String", try_from = "String")]
+pub struct Boxes(pub [u8; N_CUBES]);
+
+impl Boxes {
+    /// Each cube in its own colour's box (the paper's task).
+    pub const RGB: Boxes = Boxes([0, 1, 2]);
+
+    /// Parses a permutation of `rgb` (case-insensitive).
+    pub fn parse(text: &str) -> Result<Boxes, String> {
+        let letters: Vec<char> = text.trim().to_lowercase().chars().collect();
+        let mut boxes = [0u8; N_CUBES];
+        let mut seen = [false; N_CUBES];
+        let bad = || {
+            format!(
+                "box assignment '{text}' is not a permutation of 'rgb' (position i is the box of \
+                 cube i, red, green, blue: e.g. rgb, brg, gbr)"
+            )
+        };
+        if letters.len() != N_CUBES {
+            return Err(bad());
+        }
+        for (cube, letter) in letters.iter().enumerate() {
+            let b = match letter {
+                'r' => 0,
+                'g' => 1,
+                'b' => 2,
+                _ => return Err(bad()),
+            };
+            if seen[b] {
+                return Err(bad());
+            }
+            seen[b] = true;
+            boxes[cube] = b as u8;
+        }
+        Ok(Boxes(boxes))
+    }
+
+    /// The box of cube `cube`.
+    #[inline]
+    pub fn of(self, cube: usize) -> u8 {
+        self.0[cube]
+    }
+}
+
+impl Default for Boxes {
+    fn default() -> Self {
+        Boxes::RGB
+    }
+}
+
+impl std::fmt::Display for Boxes {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        for &b in &self.0 {
+            f.write_str(["r", "g", "b"][b as usize])?;
+        }
+        Ok(())
+    }
+}
+
+impl From<Boxes> for String {
+    fn from(b: Boxes) -> String {
+        b.to_string()
+    }
+}
+
+impl TryFrom<String> for Boxes {
+    type Error = String;
+    fn try_from(text: String) -> Result<Boxes, String> {
+        Boxes::parse(&text)
+    }
+}
 
 /// Which tidy task.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -83,8 +162,13 @@ impl TidyState {
 
     /// Whether this is the rewarded state of the task.
     pub fn is_goal(&self, variant: Variant) -> bool {
+        self.is_goal_with(variant, Boxes::RGB)
+    }
+
+    /// Whether this is the rewarded state of the task under the box assignment `boxes` (task 1).
+    pub fn is_goal_with(&self, variant: Variant, boxes: Boxes) -> bool {
         match variant {
-            Variant::Task1 => (0..N_CUBES).all(|c| self.places[c] == Place::Box(c as u8)),
+            Variant::Task1 => (0..N_CUBES).all(|c| self.places[c] == Place::Box(boxes.of(c))),
             Variant::Task2 => self.leds == 3,
         }
     }
@@ -102,6 +186,12 @@ impl TidyState {
 
     /// The deterministic effect of `action` (SPEC 2.1, 2.2).
     pub fn apply(&self, action: usize, variant: Variant) -> Effect {
+        self.apply_with(action, variant, Boxes::RGB)
+    }
+
+    /// [`apply`](TidyState::apply) under the box assignment `boxes` (task 1; task 2 keeps its
+    /// fixed assignment): the next state does not depend on it, relevance and errors do.
+    pub fn apply_with(&self, action: usize, variant: Variant, boxes: Boxes) -> Effect {
         let mut next = *self;
         let mut relevant = false;
         let mut error = false;
@@ -128,8 +218,8 @@ impl TidyState {
                     next.places[cube] = Place::Box(target as u8);
                     match variant {
                         Variant::Task1 => {
-                            relevant = cube == target;
-                            error = cube != target;
+                            relevant = usize::from(boxes.of(cube)) == target;
+                            error = !relevant;
                         }
                         Variant::Task2 => {
                             if cube == target && self.leds as usize == cube {
@@ -159,9 +249,14 @@ impl TidyState {
 
     /// The human's put when the robot holds a cube (SPEC 5, takeover).
     pub fn takeover_action(&self, variant: Variant) -> Option<usize> {
+        self.takeover_action_with(variant, Boxes::RGB)
+    }
+
+    /// [`takeover_action`](TidyState::takeover_action) under the box assignment `boxes`.
+    pub fn takeover_action_with(&self, variant: Variant, boxes: Boxes) -> Option<usize> {
         let cube = self.held()?;
         Some(match variant {
-            Variant::Task1 => 3 + cube,
+            Variant::Task1 => 3 + usize::from(boxes.of(cube)),
             Variant::Task2 if self.leds as usize == cube => 3 + cube,
             Variant::Task2 => PUT_ON_TABLE,
         })
@@ -188,6 +283,16 @@ pub fn enumerate(variant: Variant) -> Vec<TidyState> {
 
 /// Compiles a tidy task into a [`Spec`].
 pub fn build(variant: Variant) -> Spec {
+    build_with(variant, Boxes::RGB)
+}
+
+/// Compiles a tidy task under the box assignment `boxes` (SPEC 10; task 2 only with `rgb`):
+/// the same states and transitions as [`build`], another goal and other human tables.
+pub fn build_with(variant: Variant, boxes: Boxes) -> Spec {
+    assert!(
+        variant == Variant::Task1 || boxes == Boxes::RGB,
+        "task 2 keeps its fixed box assignment"
+    );
     let states = enumerate(variant);
     let id: HashMap<TidyState, StateId> = states
         .iter()
@@ -198,21 +303,36 @@ pub fn build(variant: Variant) -> Spec {
     let mut outcomes = Vec::with_capacity(n * N_ACTIONS);
     let mut relevant = Vec::with_capacity(n * N_ACTIONS);
     let mut error = Vec::with_capacity(n * N_ACTIONS);
+    let mut nuisance = Vec::with_capacity(n * N_ACTIONS);
     for state in &states {
         for action in 0..N_ACTIONS {
-            let effect = state.apply(action, variant);
+            let effect = state.apply_with(action, variant, boxes);
             outcomes.push(vec![(id[&effect.next], 1.0)]);
             relevant.push(effect.relevant);
             error.push(effect.error);
+            nuisance.push(if effect.relevant {
+                // SPEC 11.2: the human takes the cube just put back out, onto the table; in
+                // task 2 its LED goes off with the others, as when a lit cube is taken out.
+                let mut undone = effect.next;
+                let cube = state.held().expect("a relevant action is a put");
+                undone.places[cube] = Place::Table;
+                undone.leds = 0;
+                id.get(&undone).copied().unwrap_or(NO_NUISANCE)
+            } else {
+                NO_NUISANCE
+            });
         }
     }
     let takeover_action = states
         .iter()
-        .map(|s| s.takeover_action(variant).map_or(NO_TAKEOVER, |a| a as u8))
+        .map(|s| {
+            s.takeover_action_with(variant, boxes)
+                .map_or(NO_TAKEOVER, |a| a as u8)
+        })
         .collect();
     let goal = states
         .iter()
-        .position(|s| s.is_goal(variant))
+        .position(|s| s.is_goal_with(variant, boxes))
         .expect("goal is reachable");
     let name = match variant {
         Variant::Task1 => "tidy1",
@@ -231,6 +351,7 @@ pub fn build(variant: Variant) -> Spec {
             relevant,
             error,
             takeover_action,
+            nuisance,
         }),
     )
 }

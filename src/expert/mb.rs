@@ -1,10 +1,13 @@
 //! Model-based expert: a windowed transition model, a reward memory and value iteration
 //! (SPEC 3.2, Eqs. 1–2).
 //!
-//! The model of a run is kept per *environment outcome* (the CSR layout of [`Spec`]): for each
-//! state-action pair, a ring buffer of the outcomes of its last N executions, how many times each
-//! outcome appears in that window, and the last reward received on it. T(s,a,s') is the window
-//! count over the number kept; outcomes the environment cannot produce are never stored.
+//! The model of a run is kept per *observable outcome* ([`Observable`], a CSR table shared by the
+//! batch): for each state-action pair, a ring buffer of the outcomes of its last N executions, how
+//! many times each outcome appears in that window, the last reward received on it and whether that
+//! arrival was terminal (SPEC 10). Without changes during the run the observable outcomes are
+//! exactly the environment's; with a schedule they are the union over every world the run can
+//! meet, plus the outcomes a nuisance human can produce. T(s,a,s') is the window count over the
+//! number kept; outcomes the run can never observe are never stored.
 //!
 //! Value iteration is incremental but exact. A pair's new value depends only on its own model
 //! (changed by [`Model::learn`]) and on the row maxima max_b Q(s', b) of its next states, so a
@@ -17,11 +20,141 @@
 
 use std::sync::Arc;
 
-use crate::env::Spec;
+use crate::env::{Spec, StateId};
 
-/// For each state, the state-action pairs that can lead to it (from the environment's outcome
-/// table, so a superset of what a run learns): whose values to recompute when its row maximum
-/// changes. Shared by every run of an environment.
+/// The outcomes a run's MB expert can observe, per state-action pair, in CSR form: the outcomes
+/// of `sa = s * n_actions + a` are `outcomes(sa)`, next states strictly ascending. Shared by every
+/// run of a batch; the model's per-outcome arrays are indexed by it.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Observable {
+    n_states: usize,
+    n_actions: usize,
+    start: Vec<u32>,
+    state: Vec<StateId>,
+    preds: Predecessors,
+}
+
+impl Observable {
+    /// The table of per-pair next-state lists (sorted and deduplicated here).
+    pub fn new(n_states: usize, n_actions: usize, mut lists: Vec<Vec<StateId>>) -> Observable {
+        assert_eq!(lists.len(), n_states * n_actions);
+        let mut start = Vec::with_capacity(lists.len() + 1);
+        let mut state = Vec::new();
+        start.push(0u32);
+        for list in &mut lists {
+            list.sort_unstable();
+            list.dedup();
+            state.extend_from_slice(list);
+            start.push(state.len() as u32);
+        }
+        let mut table = Observable {
+            n_states,
+            n_actions,
+            start,
+            state,
+            preds: Predecessors {
+                start: Vec::new(),
+                pairs: Vec::new(),
+            },
+        };
+        table.preds = Predecessors::new(&table);
+        table
+    }
+
+    /// Exactly the outcomes of `spec`'s table (a run without changes).
+    pub fn of(spec: &Spec) -> Observable {
+        Observable::union([spec], std::iter::empty())
+    }
+
+    /// The union of the outcomes of several worlds of the same spaces, plus `extra` (pair, next
+    /// state) outcomes no world lists (a nuisance's).
+    pub fn union<'s>(
+        worlds: impl IntoIterator<Item = &'s Spec>,
+        extra: impl IntoIterator<Item = (usize, StateId)>,
+    ) -> Observable {
+        let mut dims = None;
+        let mut lists: Vec<Vec<StateId>> = Vec::new();
+        for spec in worlds {
+            let (n_s, n_a) = (spec.n_states, spec.n_actions);
+            match dims {
+                None => {
+                    dims = Some((n_s, n_a));
+                    lists = vec![Vec::new(); n_s * n_a];
+                }
+                Some(d) => assert_eq!(d, (n_s, n_a), "worlds of one run share their spaces"),
+            }
+            for (sa, list) in lists.iter_mut().enumerate() {
+                list.extend(spec.outcomes(sa).map(|o| spec.outcome_state[o]));
+            }
+        }
+        let (n_s, n_a) = dims.expect("at least one world");
+        for (sa, next) in extra {
+            lists[sa].push(next);
+        }
+        Observable::new(n_s, n_a, lists)
+    }
+
+    /// Number of states.
+    #[inline(always)]
+    pub fn n_states(&self) -> usize {
+        self.n_states
+    }
+
+    /// Number of actions.
+    #[inline(always)]
+    pub fn n_actions(&self) -> usize {
+        self.n_actions
+    }
+
+    /// Number of observable outcomes, all pairs together.
+    pub fn len(&self) -> usize {
+        self.state.len()
+    }
+
+    /// Whether no outcome is observable (never, for a valid table).
+    pub fn is_empty(&self) -> bool {
+        self.state.is_empty()
+    }
+
+    /// Range of outcome indices of the pair `sa`.
+    #[inline(always)]
+    pub fn outcomes(&self, sa: usize) -> std::ops::Range<usize> {
+        self.start[sa] as usize..self.start[sa + 1] as usize
+    }
+
+    /// Next state of outcome `o`.
+    #[inline(always)]
+    pub fn next_state(&self, o: usize) -> usize {
+        self.state[o] as usize
+    }
+
+    /// Index of the outcome of `sa` that arrives in `next`. A pair's list is short (one entry for
+    /// a deterministic pair), so a scan is cheaper than any map.
+    #[inline(always)]
+    pub fn find(&self, sa: usize, next: usize) -> usize {
+        let range = self.outcomes(sa);
+        let first = range.start;
+        let local = self.state[range]
+            .iter()
+            .position(|&x| x as usize == next)
+            .expect("every outcome a run can observe is in its table");
+        first + local
+    }
+
+    /// The predecessor lists of this table.
+    #[inline(always)]
+    pub fn preds(&self) -> &Predecessors {
+        &self.preds
+    }
+
+    /// Words of a bit set over the state-action pairs.
+    pub fn dirty_words(&self) -> usize {
+        (self.n_states * self.n_actions).div_ceil(64)
+    }
+}
+
+/// For each state, the state-action pairs that can lead to it (from the observable outcomes, so
+/// a superset of what a run learns): whose values to recompute when its row maximum changes.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Predecessors {
     start: Vec<u32>,
@@ -29,20 +162,21 @@ pub struct Predecessors {
 }
 
 impl Predecessors {
-    /// The reverse of `spec`'s outcome table, pairs ascending for each state.
-    pub fn new(spec: &Spec) -> Predecessors {
-        let mut start = vec![0u32; spec.n_states + 1];
-        for &next in &spec.outcome_state {
+    /// The reverse of an outcome table, pairs ascending for each state.
+    fn new(table: &Observable) -> Predecessors {
+        let n_states = table.n_states;
+        let mut start = vec![0u32; n_states + 1];
+        for &next in &table.state {
             start[next as usize + 1] += 1;
         }
-        for s in 0..spec.n_states {
+        for s in 0..n_states {
             start[s + 1] += start[s];
         }
         let mut fill = start.clone();
-        let mut pairs = vec![0u32; spec.outcome_state.len()];
-        for sa in 0..spec.n_states * spec.n_actions {
-            for o in spec.outcomes(sa) {
-                let next = spec.outcome_state[o] as usize;
+        let mut pairs = vec![0u32; table.state.len()];
+        for sa in 0..n_states * table.n_actions {
+            for o in table.outcomes(sa) {
+                let next = table.state[o] as usize;
                 pairs[fill[next] as usize] = sa as u32;
                 fill[next] += 1;
             }
@@ -57,11 +191,6 @@ impl Predecessors {
     }
 }
 
-/// Words of a bit set over the state-action pairs of `spec`.
-pub fn dirty_words(spec: &Spec) -> usize {
-    (spec.n_states * spec.n_actions).div_ceil(64)
-}
-
 /// One run's learned model, as mutable views into the batch's arrays.
 pub struct Model<'a> {
     /// Per pair, `window_cap` slots of outcome indices local to the pair (ring buffer).
@@ -70,10 +199,12 @@ pub struct Model<'a> {
     pub ring_len: &'a mut [u16],
     /// Per pair, the ring slot the next execution overwrites.
     pub ring_pos: &'a mut [u16],
-    /// Per environment outcome, its occurrences in the pair's window.
+    /// Per observable outcome, its occurrences in the pair's window.
     pub count: &'a mut [u16],
-    /// Per environment outcome, the most recent reward received on it.
+    /// Per observable outcome, the most recent reward received on it.
     pub reward: &'a mut [f64],
+    /// Per observable outcome, whether its most recent arrival was terminal (SPEC 10).
+    pub terminal: &'a mut [bool],
     /// Per state, whether some learned transition starts there (the states VI sweeps).
     pub known: &'a mut [bool],
     /// Per state, max_b Q(s, b) of the MB's Q table as value iteration last left it, or NaN
@@ -83,8 +214,8 @@ pub struct Model<'a> {
     pub dirty: &'a mut [u64],
     /// Number of outcomes with a non-zero count: the terms one sweep evaluates.
     pub active_terms: &'a mut u64,
-    /// The environment's predecessor lists.
-    pub preds: &'a Predecessors,
+    /// The outcomes the run can observe, and their predecessor lists.
+    pub obs: &'a Observable,
 }
 
 /// What one value-iteration call did.
@@ -112,21 +243,23 @@ impl Model<'_> {
         self.dirty[sa / 64] |= 1 << (sa % 64);
     }
 
-    /// Records one execution of (s, a) that ended in environment outcome `outcome` with reward
-    /// `r`. `window_cap` is the ring stride of the batch, `window_n` this run's N <= `window_cap`.
+    /// Records one execution of (s, a) that arrived in `next` with reward `r`, `terminal` when
+    /// that arrival ended the episode (SPEC 10). `window_cap` is the ring stride of the batch,
+    /// `window_n` this run's N <= `window_cap`.
     #[inline]
     pub fn learn(
         &mut self,
-        spec: &Spec,
         window_cap: usize,
         window_n: usize,
         s: usize,
         a: usize,
-        outcome: usize,
+        next: usize,
         r: f64,
+        terminal: bool,
     ) {
-        let sa = spec.sa(s, a);
-        let first = spec.outcome_start[sa] as usize;
+        let sa = s * self.obs.n_actions + a;
+        let outcome = self.obs.find(sa, next);
+        let first = self.obs.start[sa] as usize;
         let local = (outcome - first) as u16;
         let ring = &mut self.ring[sa * window_cap..sa * window_cap + window_n];
         let pos = self.ring_pos[sa] as usize;
@@ -146,13 +279,14 @@ impl Model<'_> {
         self.count[outcome] += 1;
         self.ring_pos[sa] = ((pos + 1) % window_n) as u16;
         self.reward[outcome] = r;
+        self.terminal[outcome] = terminal;
         self.known[s] = true;
         self.mark(sa);
     }
 
     /// T(s,a,s') of a global outcome index (Eq. 1); 0 for untried pairs.
-    pub fn probability(&self, spec: &Spec, sa: usize, outcome: usize) -> f64 {
-        debug_assert!(spec.outcomes(sa).contains(&outcome));
+    pub fn probability(&self, sa: usize, outcome: usize) -> f64 {
+        debug_assert!(self.obs.outcomes(sa).contains(&outcome));
         let n = self.ring_len[sa];
         if n == 0 {
             0.0
@@ -163,10 +297,10 @@ impl Model<'_> {
 
     /// R(s,a) = sum over s' of T(s,a,s') * r(s,a,s').
     #[inline]
-    pub fn expected_reward(&self, spec: &Spec, sa: usize) -> f64 {
+    pub fn expected_reward(&self, sa: usize) -> f64 {
         let n = f64::from(self.ring_len[sa]);
         let mut r = 0.0;
-        for o in spec.outcomes(sa) {
+        for o in self.obs.outcomes(sa) {
             let c = self.count[o];
             if c > 0 {
                 r += f64::from(c) / n * self.reward[o];
@@ -178,18 +312,17 @@ impl Model<'_> {
     /// In-place value iteration over the learned model (Eq. 2), warm-started from `q`.
     ///
     /// Sweeps the known states in ascending id and, in each, the tried actions in ascending id:
-    /// Q(s,a) = sum_s' T(s,a,s') (R(s,a) + gamma * max_b Q(s',b)), the goal contributing no
-    /// future value. Stops when a sweep's summed |dQ| is below `epsilon`, or after `max_sweeps`.
+    /// Q(s,a) = sum_s' T(s,a,s') (R(s,a) + gamma * max_b Q(s',b)), outcomes whose last arrival
+    /// was terminal contributing no future value. Stops when a sweep's summed |dQ| is below `epsilon`, or after `max_sweeps`.
     pub fn value_iteration(
         &mut self,
-        spec: &Spec,
         q: &mut [f64],
         gamma: f64,
         epsilon: f64,
         max_sweeps: u32,
     ) -> ViReport {
         self.forget_row_maxima();
-        self.value_iteration_cached(spec, q, gamma, epsilon, max_sweeps)
+        self.value_iteration_cached(q, gamma, epsilon, max_sweeps)
     }
 
     /// [`value_iteration`](Model::value_iteration) that trusts what the previous calls left (the
@@ -202,15 +335,13 @@ impl Model<'_> {
     /// [`forget_row_maxima`](Model::forget_row_maxima) (or use `value_iteration`).
     pub fn value_iteration_cached(
         &mut self,
-        spec: &Spec,
         q: &mut [f64],
         gamma: f64,
         epsilon: f64,
         max_sweeps: u32,
     ) -> ViReport {
-        let n_actions = spec.n_actions;
-        let n_pairs = spec.n_states * n_actions;
-        let goal = spec.goal as usize;
+        let n_actions = self.obs.n_actions;
+        let n_pairs = self.obs.n_states * n_actions;
         let mut report = ViReport::default();
         loop {
             let mut delta = 0.0;
@@ -241,7 +372,7 @@ impl Model<'_> {
                     };
                     row_end = (s + 1) * n_actions;
                 }
-                let value = self.pair_value(spec, sa, kept, q, gamma, goal);
+                let value = self.pair_value(sa, kept, q, gamma);
                 let old = q[sa];
                 delta += (value - old).abs();
                 if value.to_bits() != old.to_bits() {
@@ -259,7 +390,7 @@ impl Model<'_> {
                     };
                     self.best[s] = after;
                     if after.to_bits() != before.to_bits() {
-                        for &p in self.preds.of(s) {
+                        for &p in self.obs.preds.of(s) {
                             let p = p as usize;
                             self.dirty[p / 64] |= 1 << (p % 64);
                         }
@@ -287,24 +418,17 @@ impl Model<'_> {
 
     /// Q(s, a) of Eq. 2 for the pair `sa` (tried `kept` times), from the row maxima.
     #[inline(always)]
-    fn pair_value(
-        &mut self,
-        spec: &Spec,
-        sa: usize,
-        kept: u16,
-        q: &[f64],
-        gamma: f64,
-        goal: usize,
-    ) -> f64 {
-        let n_actions = spec.n_actions;
-        let outcomes = spec.outcomes(sa);
+    fn pair_value(&mut self, sa: usize, kept: u16, q: &[f64], gamma: f64) -> f64 {
+        let obs = self.obs;
+        let n_actions = obs.n_actions;
+        let outcomes = obs.outcomes(sa);
         let first = outcomes.start;
         if outcomes.len() == 1 && self.count[first] == kept {
             // A deterministic pair: T = kept / kept = 1 exactly, so the general formula below
             // reduces to these operations, bit for bit.
             let r_sa = 0.0 + self.reward[first];
-            let next = spec.outcome_state[first] as usize;
-            let future = if next == goal {
+            let next = obs.next_state(first);
+            let future = if self.terminal[first] {
                 0.0
             } else {
                 row_max(self.best, q, next, n_actions)
@@ -333,8 +457,8 @@ impl Model<'_> {
             if c == 0 {
                 continue;
             }
-            let next = spec.outcome_state[o] as usize;
-            let future = if next == goal {
+            let next = obs.next_state(o);
+            let future = if self.terminal[o] {
                 0.0
             } else {
                 row_max(self.best, q, next, n_actions)
@@ -391,6 +515,8 @@ pub struct OwnedModel {
     pub count: Vec<u16>,
     /// See [`Model::reward`].
     pub reward: Vec<f64>,
+    /// See [`Model::terminal`].
+    pub terminal: Vec<bool>,
     /// See [`Model::known`].
     pub known: Vec<bool>,
     /// See [`Model::best`].
@@ -399,25 +525,31 @@ pub struct OwnedModel {
     pub dirty: Vec<u64>,
     /// See [`Model::active_terms`].
     pub active_terms: u64,
-    /// See [`Model::preds`].
-    pub preds: Arc<Predecessors>,
+    /// See [`Model::obs`].
+    pub obs: Arc<Observable>,
 }
 
 impl OwnedModel {
-    /// An empty model for `spec` with ring stride `window_cap`.
+    /// An empty model over exactly `spec`'s outcomes, with ring stride `window_cap`.
     pub fn new(spec: &Spec, window_cap: usize) -> Self {
-        let pairs = spec.n_states * spec.n_actions;
+        OwnedModel::over(Arc::new(Observable::of(spec)), window_cap)
+    }
+
+    /// An empty model over the observable outcomes `obs`, with ring stride `window_cap`.
+    pub fn over(obs: Arc<Observable>, window_cap: usize) -> Self {
+        let pairs = obs.n_states * obs.n_actions;
         OwnedModel {
             ring: vec![0; pairs * window_cap],
             ring_len: vec![0; pairs],
             ring_pos: vec![0; pairs],
-            count: vec![0; spec.outcome_state.len()],
-            reward: vec![0.0; spec.outcome_state.len()],
-            known: vec![false; spec.n_states],
-            best: vec![f64::NAN; spec.n_states],
-            dirty: vec![0; dirty_words(spec)],
+            count: vec![0; obs.len()],
+            reward: vec![0.0; obs.len()],
+            terminal: vec![false; obs.len()],
+            known: vec![false; obs.n_states],
+            best: vec![f64::NAN; obs.n_states],
+            dirty: vec![0; obs.dirty_words()],
             active_terms: 0,
-            preds: Arc::new(Predecessors::new(spec)),
+            obs,
         }
     }
 
@@ -429,11 +561,12 @@ impl OwnedModel {
             ring_pos: &mut self.ring_pos,
             count: &mut self.count,
             reward: &mut self.reward,
+            terminal: &mut self.terminal,
             known: &mut self.known,
             best: &mut self.best,
             dirty: &mut self.dirty,
             active_terms: &mut self.active_terms,
-            preds: &self.preds,
+            obs: &self.obs,
         }
     }
 }
@@ -464,15 +597,11 @@ mod tests {
         let mut m = owned.view();
         // Window N = 3; outcomes of (0, 0): s1, s1, s2, s2 -> the window keeps s1, s2, s2.
         for next in [1, 1, 2, 2] {
-            let o = spec
-                .outcomes(0)
-                .find(|&o| spec.outcome_state[o] == next)
-                .unwrap();
-            m.learn(&spec, 3, 3, 0, 0, o, 0.0);
+            m.learn(3, 3, 0, 0, next, 0.0, next == 2);
         }
-        assert!((m.probability(&spec, 0, 0) - 1.0 / 3.0).abs() < 1e-15);
-        assert!((m.probability(&spec, 0, 1) - 2.0 / 3.0).abs() < 1e-15);
-        let row: f64 = spec.outcomes(0).map(|o| m.probability(&spec, 0, o)).sum();
+        assert!((m.probability(0, 0) - 1.0 / 3.0).abs() < 1e-15);
+        assert!((m.probability(0, 1) - 2.0 / 3.0).abs() < 1e-15);
+        let row: f64 = spec.outcomes(0).map(|o| m.probability(0, o)).sum();
         assert!((row - 1.0).abs() < 1e-12);
     }
 
@@ -481,11 +610,11 @@ mod tests {
         let spec = toy();
         let mut owned = OwnedModel::new(&spec, 10);
         let mut m = owned.view();
-        m.learn(&spec, 10, 10, 0, 0, 0, 5.0); // to s1, r 5
-        m.learn(&spec, 10, 10, 0, 0, 1, 0.0); // to s2, r 0
-        m.learn(&spec, 10, 10, 0, 0, 1, 3.0); // to s2, r 3 (replaces 0)
+        m.learn(10, 10, 0, 0, 1, 5.0, false); // to s1, r 5
+        m.learn(10, 10, 0, 0, 2, 0.0, true); // to s2, r 0
+        m.learn(10, 10, 0, 0, 2, 3.0, true); // to s2, r 3 (replaces 0)
         // R = 1/3 * 5 + 2/3 * 3 = 11/3.
-        assert!((m.expected_reward(&spec, 0) - 11.0 / 3.0).abs() < 1e-12);
+        assert!((m.expected_reward(0) - 11.0 / 3.0).abs() < 1e-12);
     }
 
     #[test]
@@ -493,13 +622,13 @@ mod tests {
         let spec = toy();
         let mut owned = OwnedModel::new(&spec, 10);
         let mut m = owned.view();
-        m.learn(&spec, 10, 10, 0, 0, 0, 0.0); // 0 -> 1
-        m.learn(&spec, 10, 10, 0, 0, 1, 0.0); // 0 -> 2 (goal, reward withheld: 0)
-        m.learn(&spec, 10, 10, 1, 0, 2, 1.0); // 1 -> 2 (goal), r 1
+        m.learn(10, 10, 0, 0, 1, 0.0, false); // 0 -> 1
+        m.learn(10, 10, 0, 0, 2, 0.0, true); // 0 -> 2 (goal, reward withheld: 0)
+        m.learn(10, 10, 1, 0, 2, 1.0, true); // 1 -> 2 (goal), r 1
         let mut q = vec![0.0; 3];
         // One sweep (max_sweeps 1): state 0 first: 0.5 * (0 + 0.9 * Q1 = 0) + 0.5 * (0 + 0) = 0;
         // then state 1: 1 * (1 + 0) = 1. ops: (2 + 1 terms) * (1 + 1) = 6.
-        let report = m.value_iteration(&spec, &mut q, 0.9, 1e-9, 1);
+        let report = m.value_iteration(&mut q, 0.9, 1e-9, 1);
         assert_eq!(q, vec![0.0, 1.0, 0.0]);
         assert_eq!(
             report,
@@ -510,7 +639,7 @@ mod tests {
             }
         );
         // Second sweep: Q0 = 0.5 * 0.9 * 1 = 0.45, then a sweep with no change ends it.
-        let report = m.value_iteration(&spec, &mut q, 0.9, 1e-9, 100);
+        let report = m.value_iteration(&mut q, 0.9, 1e-9, 100);
         assert!((q[0] - 0.45).abs() < 1e-15);
         assert_eq!(report.sweeps, 2);
         assert!(!report.capped);
@@ -527,7 +656,7 @@ mod tests {
         max_sweeps: u32,
     ) -> ViReport {
         let n_actions = spec.n_actions;
-        let goal = spec.goal as usize;
+        let obs = &m.obs;
         let mut report = ViReport::default();
         loop {
             let mut delta = 0.0;
@@ -543,19 +672,19 @@ mod tests {
                     }
                     let n = f64::from(kept);
                     let mut r_sa = 0.0;
-                    for o in spec.outcomes(sa) {
+                    for o in obs.outcomes(sa) {
                         if m.count[o] > 0 {
                             r_sa += f64::from(m.count[o]) / n * m.reward[o];
                         }
                     }
                     let mut value = 0.0;
-                    for o in spec.outcomes(sa) {
+                    for o in obs.outcomes(sa) {
                         let c = m.count[o];
                         if c == 0 {
                             continue;
                         }
-                        let next = spec.outcome_state[o] as usize;
-                        let future = if next == goal {
+                        let next = obs.next_state(o);
+                        let future = if m.terminal[o] {
                             0.0
                         } else {
                             max_of(&q[next * n_actions..(next + 1) * n_actions])
@@ -614,11 +743,20 @@ mod tests {
             } else {
                 0.0
             };
-            owned.view().learn(spec, window_n, window_n, s, a, o, r);
+            let next = spec.outcome_state[o];
+            owned.view().learn(
+                window_n,
+                window_n,
+                s,
+                a,
+                next as usize,
+                r,
+                next == spec.goal,
+            );
             if step % every == 0 {
                 let inc = owned
                     .view()
-                    .value_iteration_cached(spec, &mut q_inc, gamma, epsilon, max_sweeps);
+                    .value_iteration_cached(&mut q_inc, gamma, epsilon, max_sweeps);
                 let reference =
                     value_iteration_reference(&owned, spec, &mut q_ref, gamma, epsilon, max_sweeps);
                 assert_eq!(inc, reference, "{} step {step}: reports differ", spec.name);
@@ -664,19 +802,18 @@ mod tests {
             (18, 1),
         ] {
             let sa = spec.sa(s, a);
-            let o = spec.outcomes(sa).start;
-            owned.view().learn(&spec, 10, 10, s, a, o, 1.0);
+            let next = spec.outcome_state[spec.outcomes(sa).start] as usize;
+            let terminal = next == spec.goal as usize;
+            owned.view().learn(10, 10, s, a, next, 1.0, terminal);
         }
         let mut q = vec![0.0; spec.n_states * spec.n_actions];
         owned
             .view()
-            .value_iteration_cached(&spec, &mut q, 0.95, 1e-9, 1000);
+            .value_iteration_cached(&mut q, 0.95, 1e-9, 1000);
         // Change Q behind the cache's back, then use the safe call.
         q.iter_mut().for_each(|v| *v = 0.25);
         let mut q_ref = q.clone();
-        let inc = owned
-            .view()
-            .value_iteration(&spec, &mut q, 0.95, 1e-9, 1000);
+        let inc = owned.view().value_iteration(&mut q, 0.95, 1e-9, 1000);
         let reference = value_iteration_reference(&owned, &spec, &mut q_ref, 0.95, 1e-9, 1000);
         assert_eq!(inc, reference);
         assert_eq!(q, q_ref);
@@ -685,9 +822,43 @@ mod tests {
     #[test]
     fn predecessors_list_every_pair_that_can_reach_a_state() {
         let spec = toy();
-        let preds = Predecessors::new(&spec);
+        let obs = Observable::of(&spec);
+        let preds = obs.preds();
         assert_eq!(preds.of(0), &[] as &[u32]);
         assert_eq!(preds.of(1), &[0]);
         assert_eq!(preds.of(2), &[0, 1, 2]);
+    }
+
+    #[test]
+    fn observable_outcomes_are_the_union_of_the_worlds_plus_the_extra_ones() {
+        let spec = toy();
+        // Another world of the same spaces where 1 -> 0, and an extra outcome 2 -> 1.
+        let other = Spec::from_outcomes(
+            "other".into(),
+            3,
+            1,
+            vec![vec![(2, 1.0)], vec![(0, 1.0)], vec![(2, 1.0)]],
+            vec![0],
+            2,
+            1.0,
+            vec!["a".into(), "b".into(), "g".into()],
+            None,
+        );
+        let obs = Observable::union([&spec, &other], [(2, 1)]);
+        let next =
+            |sa: usize| -> Vec<usize> { obs.outcomes(sa).map(|o| obs.next_state(o)).collect() };
+        assert_eq!(next(0), vec![1, 2]);
+        assert_eq!(next(1), vec![0, 2]);
+        assert_eq!(next(2), vec![1, 2]);
+        assert_eq!(obs.len(), 6);
+        assert_eq!(obs.find(1, 2), 3);
+        assert_eq!(obs.preds().of(0), &[1]);
+        assert_eq!(obs.preds().of(1), &[0, 2]);
+        // Without extra worlds the table is the spec's own, index for index.
+        let own = Observable::of(&spec);
+        assert_eq!(own.len(), spec.outcome_state.len());
+        for o in 0..own.len() {
+            assert_eq!(own.next_state(o), spec.outcome_state[o] as usize);
+        }
     }
 }

@@ -2,22 +2,27 @@
 //! with every parameter and the seed as columns so polars can `group_by` directly (SPEC 8).
 //!
 //! Files are written to a temporary name beside the target and renamed when complete, so a
-//! killed job never leaves a truncated file under the final name.
+//! killed job never leaves a truncated file under the final name. Every file carries its
+//! [`provenance`] as key-value metadata and each column's description and unit as field
+//! metadata ([`columns`]); pages are zstd-compressed.
 
 pub mod atomic;
+pub mod columns;
+pub mod provenance;
 
 pub use atomic::write_atomic;
+pub use provenance::{Context, command_line, provenance};
 
 use std::fs::File;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use arrow::array::{
-    ArrayRef, BooleanArray, Float64Array, RecordBatch, StringArray, UInt32Array, UInt64Array,
+    ArrayRef, BooleanArray, Float64Array, Int64Array, RecordBatch, StringArray, UInt64Array,
 };
 use arrow::datatypes::{DataType, Field, Schema, SchemaRef};
 use parquet::arrow::ArrowWriter;
-use parquet::basic::Compression;
+use parquet::basic::{Compression, ZstdLevel};
 use parquet::file::metadata::KeyValue;
 use parquet::file::properties::WriterProperties;
 
@@ -67,13 +72,23 @@ impl Columns {
     pub fn opt_f64(&mut self, name: &str, values: impl Iterator<Item = Option<f64>>) {
         self.push(name, true, Arc::new(values.collect::<Float64Array>()));
     }
-    /// A non-null u32 column.
-    pub fn u32(&mut self, name: &str, values: impl Iterator<Item = u32>) {
-        self.push(name, false, Arc::new(UInt32Array::from_iter_values(values)));
+    /// A non-null i64 column of unsigned values: every count, step and index is signed, so a
+    /// difference of two (`mb_decisions - decisions`) is negative instead of wrapping in pandas,
+    /// polars or DuckDB, and 64 bits hold every u32 and every run index unchanged.
+    pub fn int<T: Into<u64>>(&mut self, name: &str, values: impl Iterator<Item = T>) {
+        self.push(
+            name,
+            false,
+            Arc::new(Int64Array::from_iter_values(values.map(signed))),
+        );
     }
-    /// A u32 column where `None` is null.
-    pub fn opt_u32(&mut self, name: &str, values: impl Iterator<Item = Option<u32>>) {
-        self.push(name, true, Arc::new(values.collect::<UInt32Array>()));
+    /// An i64 column of unsigned values where `None` is null.
+    pub fn opt_int<T: Into<u64>>(&mut self, name: &str, values: impl Iterator<Item = Option<T>>) {
+        self.push(
+            name,
+            true,
+            Arc::new(values.map(|v| v.map(signed)).collect::<Int64Array>()),
+        );
     }
     /// A non-null u64 column.
     pub fn u64(&mut self, name: &str, values: impl Iterator<Item = u64>) {
@@ -96,7 +111,7 @@ impl Columns {
         );
     }
     fn push(&mut self, name: &str, nullable: bool, array: ArrayRef) {
-        let field = Field::new(name, array.data_type().clone(), nullable);
+        let field = columns::field(name, array.data_type().clone(), nullable);
         self.fields.push(field);
         self.arrays.push(array);
     }
@@ -109,14 +124,22 @@ impl Columns {
     }
 }
 
+/// A count or index as i64. Counts are bounded by steps x runs, far below 2^63; saturating
+/// keeps a bug from wrapping to a negative count.
+fn signed<T: Into<u64>>(v: T) -> i64 {
+    i64::try_from(v.into()).unwrap_or(i64::MAX)
+}
+
 /// The parameter columns shared by both tables: identity, then every parameter (SPEC 3–7).
 pub fn param_columns<'a, I>(cols: &mut Columns, task: &str, configs: I)
 where
     I: Iterator<Item = &'a RunConfig> + Clone,
 {
     let c = configs;
-    cols.u64("run_index", c.clone().map(|r| r.run_index));
-    cols.u64("seed", c.clone().map(|r| r.seed));
+    cols.int("run_index", c.clone().map(|r| r.run_index));
+    // The master seed is an identifier, not a quantity: kept unsigned so every accepted
+    // --seed (any u64) is written as given.
+    cols.u64("master_seed", c.clone().map(|r| r.seed));
     cols.str("task", c.clone().map(|_| task));
     cols.str("controller", c.clone().map(|r| r.params.controller.name()));
     cols.str("selection", c.clone().map(|r| r.params.selection.name()));
@@ -126,7 +149,7 @@ where
         c.clone().map(|r| r.params.human.interaction.name()),
     );
     cols.str("profile", c.clone().map(|r| r.params.profile.name()));
-    cols.u32("budget", c.clone().map(|r| r.params.human.budget));
+    cols.int("budget", c.clone().map(|r| r.params.human.budget));
     cols.f64("forget_prob", c.clone().map(|r| r.params.human.forget_prob));
     cols.f64("zeta", c.clone().map(|r| r.params.human.zeta));
     cols.f64("alpha_mf", c.clone().map(|r| r.params.alpha_mf));
@@ -134,18 +157,28 @@ where
     cols.f64("gamma_mb", c.clone().map(|r| r.params.gamma_mb));
     cols.f64("tau", c.clone().map(|r| r.params.tau));
     cols.f64("q_init", c.clone().map(|r| r.params.q_init));
-    cols.u32("window_n", c.clone().map(|r| r.params.window_n));
+    cols.int("window_n", c.clone().map(|r| r.params.window_n));
     cols.f64("vi_epsilon", c.clone().map(|r| r.params.vi_epsilon));
-    cols.u32("vi_max_sweeps", c.clone().map(|r| r.params.vi_max_sweeps));
+    cols.int("vi_max_sweeps", c.clone().map(|r| r.params.vi_max_sweeps));
     cols.f64("filter_alpha", c.clone().map(|r| r.params.filter_alpha));
     cols.f64("kappa_coeff", c.clone().map(|r| r.params.kappa_coeff));
     cols.bool(
         "normalise_entropy",
         c.clone().map(|r| r.params.normalise_entropy),
     );
-    cols.u32("steps", c.clone().map(|r| r.params.steps));
-    cols.u32("babbling", c.clone().map(|r| r.params.babbling));
-    cols.u32("checkpoint", c.map(|r| r.params.checkpoint));
+    cols.int("steps", c.clone().map(|r| r.params.steps));
+    cols.int("babbling", c.clone().map(|r| r.params.babbling));
+    cols.int("checkpoint", c.clone().map(|r| r.params.checkpoint));
+    cols.str(
+        "reward_source",
+        c.clone().map(|r| r.params.reward_source.name()),
+    );
+    cols.str(
+        "congratulation_effect",
+        c.clone().map(|r| r.params.congratulation_effect.name()),
+    );
+    let boxes: Vec<String> = c.map(|r| r.params.boxes.to_string()).collect();
+    cols.str("boxes", boxes.iter().map(String::as_str));
 }
 
 fn ratio(num: f64, den: u64) -> Option<f64> {
@@ -160,17 +193,19 @@ pub fn runs_batch(batch: &Batch) -> Result<RecordBatch, OutputError> {
     let s = batch.stats();
     cols.f64("total_reward", s.iter().map(|r| r.total_reward));
     cols.f64("reward_last10", s.iter().map(|r| r.reward_last10));
-    cols.opt_u32(
+    cols.opt_int(
         "first_reward_step",
         s.iter()
             .map(|r| (r.first_reward_step > 0).then_some(r.first_reward_step)),
     );
-    cols.u32("interactions", s.iter().map(|r| r.interactions()));
-    cols.u32("congratulations", s.iter().map(|r| r.congratulations));
-    cols.u32("takeovers", s.iter().map(|r| r.takeovers));
-    cols.u32("punishments", s.iter().map(|r| r.punishments));
-    cols.u32("forgotten", s.iter().map(|r| r.forgotten));
-    cols.opt_u32(
+    cols.int("interactions", s.iter().map(|r| r.interactions()));
+    cols.int("congratulations", s.iter().map(|r| r.congratulations));
+    cols.int("takeovers", s.iter().map(|r| r.takeovers));
+    cols.int("punishments", s.iter().map(|r| r.punishments));
+    cols.int("rewards_given", s.iter().map(|r| r.rewards_given));
+    cols.int("nuisances", s.iter().map(|r| r.nuisances));
+    cols.int("forgotten", s.iter().map(|r| r.forgotten));
+    cols.opt_int(
         "budget_exhausted_step",
         s.iter()
             .map(|r| (r.budget_exhausted_step > 0).then_some(r.budget_exhausted_step)),
@@ -178,8 +213,8 @@ pub fn runs_batch(batch: &Batch) -> Result<RecordBatch, OutputError> {
     cols.f64("cost_total", s.iter().map(|r| r.cost_total()));
     cols.f64("cost_mf", s.iter().map(|r| r.cost_mf));
     cols.f64("cost_mb", s.iter().map(|r| r.cost_mb));
-    cols.u64("decisions", s.iter().map(|r| r.decisions));
-    cols.u64("mb_decisions", s.iter().map(|r| r.mb_decisions));
+    cols.int("decisions", s.iter().map(|r| r.decisions));
+    cols.int("mb_decisions", s.iter().map(|r| r.mb_decisions));
     cols.opt_f64(
         "mb_share",
         s.iter().map(|r| ratio(r.mb_decisions as f64, r.decisions)),
@@ -192,9 +227,25 @@ pub fn runs_batch(batch: &Batch) -> Result<RecordBatch, OutputError> {
         "mean_entropy_chosen",
         s.iter().map(|r| ratio(r.entropy_sum, r.decisions)),
     );
-    cols.u64("vi_calls", s.iter().map(|r| r.vi_calls));
-    cols.u64("vi_sweeps", s.iter().map(|r| r.vi_sweeps));
-    cols.u64("vi_capped", s.iter().map(|r| r.vi_capped));
+    cols.str("schedule", (0..batch.len()).map(|r| batch.schedule_text(r)));
+    cols.opt_int(
+        "first_change_step",
+        s.iter()
+            .map(|r| (r.first_change_step > 0).then_some(r.first_change_step)),
+    );
+    cols.opt_f64(
+        "reward_before_change",
+        s.iter()
+            .map(|r| (r.first_change_step > 0).then_some(r.reward_before_change)),
+    );
+    cols.opt_f64(
+        "reward_after_change",
+        s.iter().map(|r| r.reward_after_change()),
+    );
+    cols.opt_int("recovery_steps", s.iter().map(|r| r.recovery_steps()));
+    cols.int("vi_calls", s.iter().map(|r| r.vi_calls));
+    cols.int("vi_sweeps", s.iter().map(|r| r.vi_sweeps));
+    cols.int("vi_capped", s.iter().map(|r| r.vi_capped));
     cols.f64("wall_time_s", s.iter().map(|r| r.wall_time_s));
     cols.finish()
 }
@@ -206,7 +257,7 @@ pub fn series_batch(batch: &Batch) -> Result<RecordBatch, OutputError> {
     let rows = || (0..batch.len()).flat_map(move |r| batch.series(r).iter().map(move |c| (r, c)));
     let configs = batch.configs();
     param_columns(&mut cols, &task, rows().map(|(r, _)| &configs[r]));
-    cols.u32("step", rows().map(|(_, c)| c.step));
+    cols.int("step", rows().map(|(_, c)| c.step));
     cols.f64("cum_reward", rows().map(|(_, c)| c.cum_reward));
     cols.f64(
         "cum_cost",
@@ -218,9 +269,57 @@ pub fn series_batch(batch: &Batch) -> Result<RecordBatch, OutputError> {
         "p_mb_mean",
         rows().map(|(_, c)| (c.decisions > 0).then_some(c.p_mb_mean)),
     );
-    cols.u32("decisions", rows().map(|(_, c)| c.decisions));
-    cols.u32("interactions", rows().map(|(_, c)| c.interactions));
+    cols.int("decisions", rows().map(|(_, c)| c.decisions));
+    cols.int("interactions", rows().map(|(_, c)| c.interactions));
     cols.finish()
+}
+
+/// `table` with `config_index` and `seed_index` inserted after `master_seed`, taken from each
+/// row's `run_index` for `mbmf run`, whose runs are `runs_per_config` consecutive runs of each
+/// controller in turn: config_index = run_index / runs (the controller's position in
+/// `--controller`), seed_index = run_index % runs (the replicate), as `mbmf sweep` numbers its
+/// configurations and seeds.
+pub fn with_run_indices(
+    table: RecordBatch,
+    runs_per_config: u64,
+) -> Result<RecordBatch, OutputError> {
+    let per = runs_per_config.max(1) as i64;
+    let run_index = table
+        .column_by_name("run_index")
+        .and_then(|c| c.as_any().downcast_ref::<Int64Array>())
+        .ok_or_else(|| arrow::error::ArrowError::SchemaError("no Int64 run_index column".into()))?
+        .clone();
+    insert_indices(
+        table,
+        run_index.values().iter().map(|r| r / per),
+        run_index.values().iter().map(|r| r % per),
+    )
+}
+
+/// `table` with the non-null `config_index` and `seed_index` columns after `master_seed`.
+pub fn insert_indices(
+    table: RecordBatch,
+    config_index: impl Iterator<Item = i64>,
+    seed_index: impl Iterator<Item = i64>,
+) -> Result<RecordBatch, OutputError> {
+    let schema = table.schema();
+    let mut fields: Vec<Field> = Vec::with_capacity(schema.fields().len() + 2);
+    let mut arrays: Vec<ArrayRef> = Vec::with_capacity(fields.capacity());
+    let mut extra = Some((config_index, seed_index));
+    for (field, column) in schema.fields().iter().zip(table.columns()) {
+        fields.push(field.as_ref().clone());
+        arrays.push(Arc::clone(column));
+        if field.name() == "master_seed"
+            && let Some((c, s)) = extra.take()
+        {
+            fields.push(columns::field("config_index", DataType::Int64, false));
+            arrays.push(Arc::new(Int64Array::from_iter_values(c)));
+            fields.push(columns::field("seed_index", DataType::Int64, false));
+            arrays.push(Arc::new(Int64Array::from_iter_values(s)));
+        }
+    }
+    let schema = Arc::new(Schema::new_with_metadata(fields, schema.metadata().clone()));
+    Ok(RecordBatch::try_new(schema, arrays)?)
 }
 
 /// A Parquet file being written under a temporary name, renamed into place by [`finish`].
@@ -261,8 +360,10 @@ impl ParquetSink {
                 .iter()
                 .map(|(k, v)| KeyValue::new(k.clone(), v.clone()))
                 .collect();
+            // zstd level 3 (parquet-rs's default level): about half snappy's size for these
+            // repetitive parameter columns at a similar write speed.
             let props = WriterProperties::builder()
-                .set_compression(Compression::SNAPPY)
+                .set_compression(Compression::ZSTD(ZstdLevel::default()))
                 .set_key_value_metadata(Some(kv))
                 .build();
             let schema: SchemaRef = batch.schema();
@@ -292,7 +393,11 @@ impl ParquetSink {
         result
     }
 
-    fn close(&self, writer: ArrowWriter<File>) -> Result<PathBuf, OutputError> {
+    fn close(&self, mut writer: ArrowWriter<File>) -> Result<PathBuf, OutputError> {
+        writer.append_key_value_metadata(KeyValue::new(
+            provenance::ENDED_KEY.to_string(),
+            provenance::utc(std::time::SystemTime::now()),
+        ));
         let file = writer.into_inner().map_err(|source| OutputError::Parquet {
             path: self.path.clone(),
             source,
@@ -330,21 +435,25 @@ pub fn write_parquet(
     sink.finish()
 }
 
-/// The key-value metadata of every file mbmf writes: the version, then `extra` in order.
-pub fn metadata<'a>(extra: impl IntoIterator<Item = (&'a str, String)>) -> Vec<(String, String)> {
-    std::iter::once(("mbmf_version", env!("CARGO_PKG_VERSION").to_string()))
-        .chain(extra)
-        .map(|(k, v)| (k.to_string(), v))
-        .collect()
+/// The metadata of a runs file and a series file written together by one command (`mbmf run`,
+/// `mbmf reproduce`): the provenance, the master seed and the run id they share.
+pub fn pair_metadata(master_seed: u64) -> [Vec<(String, String)>; 2] {
+    let mut runs = provenance(provenance::RUNS_SCHEMA, &Context::default());
+    runs.push(("master_seed".to_string(), master_seed.to_string()));
+    runs.push((atomic::RUN_ID_KEY.to_string(), atomic::new_run_id()));
+    let series = with_schema(&runs, provenance::SERIES_SCHEMA);
+    [runs, series]
 }
 
-/// The command line of this process, for the `mbmf_command` metadata entry. Lossy: an argument
-/// that is not UTF-8 (a path) must not stop a run.
-pub fn command_line() -> String {
-    std::env::args_os()
-        .map(|a| a.to_string_lossy().into_owned())
-        .collect::<Vec<_>>()
-        .join(" ")
+/// `metadata` with its `mbmf_schema` entry set to `schema` (added if absent).
+pub fn with_schema(metadata: &[(String, String)], schema: &str) -> Vec<(String, String)> {
+    let mut kv: Vec<(String, String)> = metadata
+        .iter()
+        .filter(|(k, _)| k != "mbmf_schema")
+        .cloned()
+        .collect();
+    kv.insert(0, ("mbmf_schema".to_string(), schema.to_string()));
+    kv
 }
 
 /// Schema of a table, for documentation and checks: (name, type, nullable).

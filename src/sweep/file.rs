@@ -16,6 +16,7 @@ use super::keys::{self, KEYS, Key, Kind, N_KEYS, Value};
 use crate::env::{self, Spec};
 use crate::params::ConfigError;
 use crate::params::{Params, Profile, default_steps};
+use crate::schedule::{Event, Schedule};
 
 /// Top-level keys and sections of a sweep file.
 pub const TOP_LEVEL: &[&str] = &["seeds", "master_seed", "fixed", "grid", "zip", "profiles"];
@@ -83,6 +84,8 @@ pub struct UserProfile {
 pub struct Resolved {
     /// Index into [`Sweep::tasks`].
     pub task: usize,
+    /// Index into [`Sweep::schedules`] (0: no change).
+    pub schedule: usize,
     /// Every parameter of the runs.
     pub params: Params,
     /// Index into [`Sweep::profile_names`]: the name written in the `profile` column.
@@ -112,6 +115,12 @@ pub struct Sweep {
     pub tasks: Vec<String>,
     /// Names that may appear in the `profile` column.
     pub profile_names: Vec<String>,
+    /// Distinct schedules of changes (the first is the empty one), `json:` paths of their world
+    /// events relative to the sweep file.
+    pub schedules: Vec<Schedule>,
+    /// The canonical text of each of [`Sweep::schedules`] as the file wrote it (before paths were
+    /// resolved), to find a configuration's schedule.
+    schedule_texts: Vec<String>,
     sources: Vec<Source>,
     configurations: u64,
 }
@@ -168,6 +177,9 @@ fn kind_name(kind: Kind) -> String {
         Kind::Switch => "true or false".into(),
         Kind::Choice(names) => format!("one of {}", names.join(", ")),
         Kind::Task => "a task name (tidy1, tidy2, json:PATH, ...)".into(),
+        Kind::Schedule => "a schedule of changes, STEP:KEY=VALUE events joined by ';' (e.g. \
+             \"1601:goal=34;1601:world=json:PATH\"), or \"\" for none"
+            .into(),
         Kind::Profile => format!(
             "a profile name ({} or one defined in [profiles.NAME])",
             builtin_profile_names().join(", ")
@@ -587,6 +599,10 @@ impl Parser<'_> {
                 }
                 Value::Text(s.to_string())
             }
+            (Kind::Schedule, DeValue::String(s)) => match Schedule::parse(s) {
+                Ok(schedule) => Value::Text(schedule.to_string()),
+                Err(e) => return Err(bad(self, e.to_string())),
+            },
             (Kind::Profile, DeValue::String(s)) => {
                 let name = s.trim().to_ascii_lowercase().replace('_', "-");
                 self.profile_uses
@@ -996,6 +1012,35 @@ impl Sweep {
             std::mem::take(&mut p.profiles),
         );
         let tasks = tasks(&fixed, &axes, &profiles);
+        let mut schedule_texts = vec![String::new()];
+        for (key, value) in fixed
+            .iter()
+            .map(|(k, v)| (*k, v))
+            .chain(axes.iter().flat_map(|a| {
+                a.values
+                    .iter()
+                    .flat_map(move |row| a.keys.iter().copied().zip(row.iter()))
+            }))
+        {
+            if key == Key::Change && !schedule_texts.contains(&value.to_string()) {
+                schedule_texts.push(value.to_string());
+            }
+        }
+        let schedules = schedule_texts
+            .iter()
+            .map(|t| {
+                let mut s = Schedule::parse(t).expect("checked when parsed");
+                for change in &mut s.changes {
+                    if let Event::World(task) = &mut change.event
+                        && let Some(path) = task.strip_prefix("json:")
+                        && Path::new(path).is_relative()
+                    {
+                        *task = format!("json:{}", dir.join(path).display());
+                    }
+                }
+                s
+            })
+            .collect();
         let mut profile_names = vec!["none".to_string(), "custom".to_string()];
         profile_names.extend(
             builtin_profile_names()
@@ -1015,6 +1060,8 @@ impl Sweep {
             profiles,
             tasks,
             profile_names,
+            schedules,
+            schedule_texts,
             sources: p.sources,
             configurations,
         })
@@ -1097,6 +1144,9 @@ impl Sweep {
         params.human = builtin
             .and_then(|p| p.human(params.controller))
             .unwrap_or_default();
+        if let Some(source) = builtin.and_then(|p| p.reward_source()) {
+            params.reward_source = source;
+        }
         let mut human_set = false;
         for info in KEYS.iter().filter(|i| i.key.is_human()) {
             if let Some(v) = eff[info.key as usize] {
@@ -1112,8 +1162,19 @@ impl Sweep {
         if profile == PROFILE_NONE && builtin.is_none() && human_set {
             profile = PROFILE_CUSTOM;
         }
+        let schedule = match set[Key::Change as usize] {
+            Some(v) => {
+                let text = v.to_string();
+                self.schedule_texts
+                    .iter()
+                    .position(|t| *t == text)
+                    .unwrap_or(0)
+            }
+            None => 0,
+        };
         Resolved {
             task,
+            schedule,
             params,
             profile,
         }
@@ -1190,6 +1251,14 @@ impl Sweep {
     pub fn check(&self, specs: &[Arc<Spec>]) -> Result<(), SweepError> {
         for config in 0..self.configurations {
             let r = self.resolve(config);
+            if let Err(e) =
+                crate::schedule::compile(&specs[r.task], &self.schedules[r.schedule], &r.params)
+            {
+                return Err(self.err_at_key(
+                    Key::Change,
+                    format!("configuration {config} ({}): {e}", self.describe(config)),
+                ));
+            }
             if let Err(e) = r.params.validate_for(&specs[r.task]) {
                 // Not an exhaustive match, so a new error kind elsewhere does not break this.
                 let key = if let ConfigError::InvalidParam { name, .. } = &e {

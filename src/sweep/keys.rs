@@ -3,6 +3,7 @@
 
 use std::fmt;
 
+use crate::env::tidy::Boxes;
 use crate::params::Params;
 
 /// What values a key takes.
@@ -20,6 +21,8 @@ pub enum Kind {
     Task,
     /// A built-in profile name or one defined in the file.
     Profile,
+    /// A schedule of changes, `STEP:KEY=VALUE` events joined by `;`.
+    Schedule,
 }
 
 /// A key's name, aliases, kind and help line.
@@ -44,7 +47,19 @@ pub const SELECTIONS: &[&str] = &["softmax", "argmax"];
 /// Names of the cost models.
 pub const COST_MODELS: &[&str] = &["ops", "wallclock"];
 /// Names of the interaction types.
-pub const INTERACTIONS: &[&str] = &["none", "congratulation", "takeover", "punishment"];
+pub const INTERACTIONS: &[&str] = &[
+    "none",
+    "congratulation",
+    "takeover",
+    "punishment",
+    "nuisance",
+];
+/// tidy1's box assignments (permutations of `rgb`).
+pub const BOX_ASSIGNMENTS: &[&str] = &["rgb", "rbg", "grb", "gbr", "brg", "bgr"];
+/// Names of the reward sources.
+pub const REWARD_SOURCES: &[&str] = &["environment", "human"];
+/// Names of the congratulation effects.
+pub const CONGRATULATION_EFFECTS: &[&str] = &["bias", "reward"];
 
 /// Declares [`Key`], [`KEYS`] and [`N_KEYS`] from one row per key: variant, name, aliases, kind
 /// of value and help line.
@@ -95,6 +110,10 @@ keys! {
     Steps "steps" [] Kind::Count, "experiment steps (default 10000; 20000 for tidy2)";
     Babbling "babbling" [] Kind::Count, "babbling steps (default 1000)";
     Checkpoint "checkpoint" [] Kind::Count, "series row every this many steps (default 100)";
+    Boxes "boxes" [] Kind::Choice(BOX_ASSIGNMENTS), "tidy1 box assignment, position i the box of cube i (default rgb)";
+    RewardSource "reward_source" [] Kind::Choice(REWARD_SOURCES), "who brings the goal's reward (default environment)";
+    CongratulationEffect "congratulation_effect" [] Kind::Choice(CONGRATULATION_EFFECTS), "congratulation as a softmax bias or as reward shaping (default bias)";
+    Change "change" ["changes", "schedule"] Kind::Schedule, "changes during the run, e.g. \"1601:goal=34;1601:world=json:PATH\" (default none)";
 }
 
 impl Key {
@@ -120,7 +139,7 @@ impl Key {
     pub fn is_human(self) -> bool {
         matches!(
             self,
-            Key::Interaction | Key::Budget | Key::Zeta | Key::Forget
+            Key::Interaction | Key::Budget | Key::Zeta | Key::Forget | Key::RewardSource
         )
     }
 
@@ -182,7 +201,7 @@ pub fn apply(key: Key, value: &Value, params: &mut Params) {
         _ => 0,
     };
     match key {
-        Key::Task | Key::Profile => {}
+        Key::Task | Key::Profile | Key::Change => {}
         Key::Controller => params.controller = choice(value, params.controller),
         Key::Selection => params.selection = choice(value, params.selection),
         Key::CostModel => params.cost_model = choice(value, params.cost_model),
@@ -198,6 +217,17 @@ pub fn apply(key: Key, value: &Value, params: &mut Params) {
         Key::KappaCoeff => params.kappa_coeff = real,
         Key::NormaliseEntropy => params.normalise_entropy = *value == Value::Switch(true),
         Key::Interaction => params.human.interaction = choice(value, params.human.interaction),
+        Key::RewardSource => params.reward_source = choice(value, params.reward_source),
+        Key::CongratulationEffect => {
+            params.congratulation_effect = choice(value, params.congratulation_effect)
+        }
+        Key::Boxes => {
+            if let Value::Choice(name) = value
+                && let Ok(b) = Boxes::parse(name)
+            {
+                params.boxes = b;
+            }
+        }
         Key::Budget => params.human.budget = count,
         Key::Zeta => params.human.zeta = real,
         Key::Forget => params.human.forget_prob = real,

@@ -5,7 +5,7 @@
 //! - [`file`]: parsing and validation (messages name the file, line and key), expansion.
 //! - [`keys`]: the parameters a sweep may set and how they map to [`crate::params::Params`].
 //! - [`shard`]: `--shard I/N` and the Slurm / Kubernetes environment.
-//! - [`store`]: the dataset folder: atomic parts, lock, resume scan.
+//! - [`store`]: the dataset folder: atomic parts, lock, resume scan, compaction.
 //! - [`runner`]: batching, simulation, progress, and the `--dry-run` estimate.
 
 pub mod file;

@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Instant;
 
-use arrow::array::{ArrayRef, RecordBatch, StringArray, UInt32Array, UInt64Array};
+use arrow::array::{ArrayRef, RecordBatch, StringArray};
 use arrow::datatypes::{DataType, Field, Schema};
 
 use super::file::Sweep;
@@ -139,15 +139,22 @@ impl Report {
     }
 }
 
-/// Key-value metadata of every part file.
-pub fn metadata(sweep: &Sweep) -> Vec<(String, String)> {
-    output::metadata([
-        ("mbmf_sweep", sweep.text.clone()),
-        ("mbmf_sweep_file", sweep.file.clone()),
-        ("master_seed", sweep.master_seed.to_string()),
-        ("mbmf_sweep_runs", sweep.runs().to_string()),
-        ("mbmf_sweep_seeds", sweep.seeds.to_string()),
-    ])
+/// Key-value metadata of every part file written by `shard`: the provenance, then the sweep.
+pub fn metadata(sweep: &Sweep, shard: Shard) -> Vec<(String, String)> {
+    let context = output::Context {
+        started: None,
+        shard: (shard != Shard::ALL).then_some((shard.index, shard.count)),
+        sweep_text: Some(&sweep.text),
+    };
+    let mut kv = output::provenance(output::provenance::RUNS_SCHEMA, &context);
+    kv.extend([
+        ("mbmf_sweep".to_string(), sweep.text.clone()),
+        ("mbmf_sweep_file".to_string(), sweep.file.clone()),
+        ("master_seed".to_string(), sweep.master_seed.to_string()),
+        ("mbmf_sweep_runs".to_string(), sweep.runs().to_string()),
+        ("mbmf_sweep_seeds".to_string(), sweep.seeds.to_string()),
+    ]);
+    kv
 }
 
 /// A batch being filled: the runs and, for each, its configuration and seed index.
@@ -155,10 +162,12 @@ pub fn metadata(sweep: &Sweep) -> Vec<(String, String)> {
 struct Pending {
     configs: Vec<RunConfig>,
     meta: Vec<(u64, u32, usize)>,
+    /// Per run, its index into the sweep's schedules.
+    schedules: Vec<usize>,
 }
 
 /// Adds the sweep's own columns to a table from [`output`]: `config_index` and `seed_index`
-/// after `seed`, and the `profile` column with the sweep's profile names (user-defined profiles
+/// after `master_seed`, and the `profile` column with the sweep's profile names (user-defined profiles
 /// are `custom` to the engine).
 fn decorate(
     table: RecordBatch,
@@ -174,25 +183,19 @@ fn decorate(
                 .iter()
                 .map(|r| Some(sweep.profile_names[r.2].as_str()))
                 .collect();
-            fields.push(Field::new("profile", DataType::Utf8, false));
+            fields.push(output::columns::field("profile", DataType::Utf8, false));
             columns.push(Arc::new(names));
         } else {
             fields.push(field.as_ref().clone());
             columns.push(Arc::clone(column));
         }
-        if field.name() == "seed" {
-            fields.push(Field::new("config_index", DataType::UInt64, false));
-            columns.push(Arc::new(UInt64Array::from_iter_values(
-                rows.iter().map(|r| r.0),
-            )));
-            fields.push(Field::new("seed_index", DataType::UInt32, false));
-            columns.push(Arc::new(UInt32Array::from_iter_values(
-                rows.iter().map(|r| r.1),
-            )));
-        }
     }
     let schema = Arc::new(Schema::new_with_metadata(fields, schema.metadata().clone()));
-    Ok(RecordBatch::try_new(schema, columns)?)
+    output::insert_indices(
+        RecordBatch::try_new(schema, columns)?,
+        rows.iter().map(|r| r.0 as i64),
+        rows.iter().map(|r| i64::from(r.1)),
+    )
 }
 
 /// The runs and series tables of a finished batch, with the sweep's columns.
@@ -213,6 +216,12 @@ pub fn tables(
 
 /// The runs of `shard` not in `done`, grouped into batches of one task of at most `batch_size`
 /// runs, handed to `emit` one by one (so only a few batches exist at a time).
+///
+/// A batch holds one value of every text parameter (task, controller, selection, cost model,
+/// interaction, profile), so each part's statistics show a single value and a reader filtering
+/// on one (`controller == "ec"`) skips every other part. A batch is closed before a
+/// configuration that would not fit, so a configuration's runs share a part unless it alone has
+/// more than `batch_size` runs.
 fn plan(
     sweep: &Sweep,
     shard: Shard,
@@ -220,32 +229,49 @@ fn plan(
     batch_size: usize,
     mut emit: impl FnMut(usize, Pending) -> Result<(), RunError>,
 ) -> Result<(), RunError> {
-    let mut pending: Vec<Pending> = (0..sweep.tasks.len()).map(|_| Pending::default()).collect();
+    type Group = (usize, [&'static str; 4], usize);
+    let mut pending: std::collections::BTreeMap<Group, Pending> = Default::default();
     let seeds = u64::from(sweep.seeds);
     for config in shard.configs(sweep.configurations()) {
         let first = config * seeds;
-        if (0..seeds).all(|s| done.contains(first + s)) {
+        let missing = (0..seeds).filter(|s| !done.contains(first + s)).count();
+        if missing == 0 {
             continue;
         }
         let resolved = sweep.resolve(config);
+        let p = &resolved.params;
+        let group: Group = (
+            resolved.task,
+            [
+                p.controller.name(),
+                p.selection.name(),
+                p.cost_model.name(),
+                p.human.interaction.name(),
+            ],
+            resolved.profile,
+        );
+        let p = pending.entry(group).or_default();
+        if !p.configs.is_empty() && p.configs.len() + missing > batch_size {
+            emit(resolved.task, std::mem::take(p))?;
+        }
         for s in 0..seeds {
             let run = first + s;
             if done.contains(run) {
                 continue;
             }
-            let p = &mut pending[resolved.task];
             p.configs.push(RunConfig {
                 params: resolved.params,
                 seed: sweep.master_seed,
                 run_index: run,
             });
             p.meta.push((config, s as u32, resolved.profile));
+            p.schedules.push(resolved.schedule);
             if p.configs.len() >= batch_size {
                 emit(resolved.task, std::mem::take(p))?;
             }
         }
     }
-    for (task, p) in pending.into_iter().enumerate() {
+    for ((task, _, _), p) in pending {
         if !p.configs.is_empty() {
             emit(task, p)?;
         }
@@ -309,7 +335,7 @@ pub fn execute(
     events(Event::Started {
         agent_steps: steps_to_run,
     });
-    let metadata = metadata(sweep);
+    let metadata = metadata(sweep, shard);
     let mut ran = 0u64;
     let mut parts_written = 0usize;
     events(Event::Ran { ran: 0, to_run });
@@ -319,13 +345,19 @@ pub fn execute(
         &scan.done,
         options.batch_size.max(1),
         |task, pending| {
-            let Pending { configs, meta } = pending;
+            let Pending {
+                configs,
+                meta,
+                schedules,
+            } = pending;
             let first = configs.iter().map(|c| c.run_index).min().unwrap_or(0);
             let last = configs.iter().map(|c| c.run_index).max().unwrap_or(0);
             let name = store::part_name(first, last, total);
-            pipeline::simulate(
+            pipeline::simulate_with_schedules(
                 &specs[task],
                 &configs,
+                &sweep.schedules,
+                &schedules,
                 configs.len(),
                 |n| events(Event::Advanced(n)),
                 |batch: &Batch| {

@@ -20,7 +20,7 @@ use std::io::{Read, Seek, Write};
 use std::os::unix::fs::MetadataExt;
 use std::path::{Path, PathBuf};
 
-use arrow::array::{Array, RecordBatch, UInt64Array};
+use arrow::array::{Array, Int64Array, RecordBatch, UInt64Array};
 use parquet::arrow::ProjectionMask;
 use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
 
@@ -492,12 +492,16 @@ fn read_runs_part(path: &Path) -> Result<(Vec<u64>, Option<String>), String> {
     let mut runs = Vec::new();
     for batch in reader {
         let batch = batch.map_err(|e| e.to_string())?;
-        let col = batch
-            .column(0)
-            .as_any()
-            .downcast_ref::<UInt64Array>()
-            .ok_or("run_index is not an unsigned 64-bit column")?;
-        runs.extend(col.iter().flatten());
+        // Int64 since schema runs/2; UInt64 before. Both are read, so the check of an older
+        // part can name its version instead of failing on the type.
+        let col = batch.column(0).as_any();
+        if let Some(col) = col.downcast_ref::<Int64Array>() {
+            runs.extend(col.iter().flatten().filter_map(|r| u64::try_from(r).ok()));
+        } else if let Some(col) = col.downcast_ref::<UInt64Array>() {
+            runs.extend(col.iter().flatten());
+        } else {
+            return Err("run_index is not a 64-bit integer column".into());
+        }
     }
     Ok((runs, version))
 }
@@ -621,8 +625,9 @@ pub fn remove_leftovers(leftovers: &[PathBuf]) -> Result<(), StoreError> {
     Ok(())
 }
 
-/// Writes one batch as the part `name`: series first, runs last (the commit), each atomically.
-/// On failure nothing of the part is left behind.
+/// Writes one batch as the part `name`: series first, runs last (the commit), each atomically,
+/// with `metadata` (its `mbmf_schema` set per table). On failure nothing of the part is left
+/// behind.
 pub fn write_part(
     dir: &Path,
     name: &str,
@@ -635,17 +640,347 @@ pub fn write_part(
     let series_path = series_dir.join(name);
     let runs_path = runs_dir.join(name);
     // NOTE: a sink whose finish fails keeps its temporary file; remove it here.
-    if let Err(e) = output::write_parquet(&series_path, series, metadata.to_vec()) {
+    let series_meta = output::with_schema(metadata, output::provenance::SERIES_SCHEMA);
+    let runs_meta = output::with_schema(metadata, output::provenance::RUNS_SCHEMA);
+    if let Err(e) = output::write_parquet(&series_path, series, series_meta) {
         let _ = fs::remove_file(series_dir.join(sink_tmp_name(name)));
         return Err(e.into());
     }
     sync_dir(&series_dir);
-    if let Err(e) = output::write_parquet(&runs_path, runs, metadata.to_vec()) {
+    if let Err(e) = output::write_parquet(&runs_path, runs, runs_meta) {
         let _ = fs::remove_file(runs_dir.join(sink_tmp_name(name)));
         let _ = fs::remove_file(&series_path);
         return Err(e.into());
     }
     sync_dir(&runs_dir);
+    Ok(())
+}
+
+/// What [`compact`] did.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Compacted {
+    /// Runs in the dataset.
+    pub runs: u64,
+    /// Part files before (per table).
+    pub parts_before: usize,
+    /// Part files after (per table).
+    pub parts_after: usize,
+}
+
+/// Why a dataset cannot be compacted (besides the errors of [`StoreError`]).
+fn refuse(dir: &Path, reason: String) -> StoreError {
+    StoreError::BadPart {
+        path: dir.to_path_buf(),
+        reason,
+    }
+}
+
+/// The text parameters of a part's first row: parts are merged only with parts of the same
+/// values, so a compacted file still holds one value of each and filters still skip files.
+fn part_group(batch: &RecordBatch) -> Vec<String> {
+    use arrow::util::display::array_value_to_string;
+    [
+        "task",
+        "controller",
+        "selection",
+        "cost_model",
+        "interaction",
+        "profile",
+    ]
+    .iter()
+    .map(|name| {
+        batch
+            .column_by_name(name)
+            .filter(|c| !c.is_empty())
+            .and_then(|c| array_value_to_string(c, 0).ok())
+            .unwrap_or_default()
+    })
+    .collect()
+}
+
+/// A part's record batches and its key-value metadata.
+type PartContents = (Vec<RecordBatch>, Vec<(String, String)>);
+
+fn read_all(path: &Path) -> Result<PartContents, StoreError> {
+    let bad = |e: String| StoreError::BadPart {
+        path: path.to_path_buf(),
+        reason: format!("cannot be read ({e})"),
+    };
+    let file = File::open(path).map_err(io("read", path))?;
+    let builder = ParquetRecordBatchReaderBuilder::try_new(file).map_err(|e| bad(e.to_string()))?;
+    let kv = builder
+        .metadata()
+        .file_metadata()
+        .key_value_metadata()
+        .map(|kv| {
+            kv.iter()
+                .map(|k| (k.key.clone(), k.value.clone().unwrap_or_default()))
+                .collect()
+        })
+        .unwrap_or_default();
+    let reader = builder.build().map_err(|e| bad(e.to_string()))?;
+    let batches = reader
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(|e| bad(e.to_string()))?;
+    Ok((batches, kv))
+}
+
+/// Swaps two folders atomically (Linux `renameat2(RENAME_EXCHANGE)`). Where the file system
+/// cannot, `b` is moved aside and `a` into its place: readers then briefly find no folder,
+/// never a mix of old and new files.
+fn exchange(a: &Path, b: &Path, aside: &Path) -> std::io::Result<()> {
+    use std::ffi::CString;
+    use std::os::unix::ffi::OsStrExt;
+    let ca = CString::new(a.as_os_str().as_bytes())?;
+    let cb = CString::new(b.as_os_str().as_bytes())?;
+    // SAFETY: two valid NUL-terminated paths; the call reads them and touches no memory of ours.
+    let rc = unsafe {
+        libc::syscall(
+            libc::SYS_renameat2,
+            libc::AT_FDCWD,
+            ca.as_ptr(),
+            libc::AT_FDCWD,
+            cb.as_ptr(),
+            libc::RENAME_EXCHANGE,
+        )
+    };
+    if rc == 0 {
+        // `a` now holds the old contents of `b`.
+        return fs::rename(a, aside);
+    }
+    let e = std::io::Error::last_os_error();
+    match e.raw_os_error() {
+        Some(libc::EINVAL) | Some(libc::ENOSYS) | Some(libc::EXDEV) => {
+            fs::rename(b, aside)?;
+            fs::rename(a, b)
+        }
+        _ => Err(e),
+    }
+}
+
+/// Merges the parts of a finished sweep dataset into files of about `target_runs` runs each,
+/// keeping the `part-FIRST-LAST` names (so every reader of parts reads them unchanged) and
+/// merging only parts that hold the same text parameters. The dataset is rebuilt in a sibling
+/// folder and swapped in at once, so a reader or a kill sees the old or the new dataset, never
+/// a mix; a `--resume` afterwards finds it complete. Refuses a dataset that a live process is
+/// writing or that misses runs.
+pub fn compact(dir: &Path, target_runs: u64) -> Result<Compacted, StoreError> {
+    match fs::metadata(dir.join(SWEEP_FILE)) {
+        Ok(_) => {}
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+            return Err(refuse(
+                dir,
+                format!(
+                    "is not a sweep dataset (no {SWEEP_FILE}): mbmf compact takes the --out folder of mbmf sweep"
+                ),
+            ));
+        }
+        Err(e) => return Err(io("read", &dir.join(SWEEP_FILE))(e)),
+    }
+    // Any live writer, of any split, refuses; our own lock keeps new writers out meanwhile.
+    for name in list(dir)? {
+        if !name.starts_with(".lock-") {
+            continue;
+        }
+        let path = dir.join(&name);
+        if let Ok(mut f) = OpenOptions::new().read(true).write(true).open(&path)
+            && let Err(fs::TryLockError::WouldBlock) = f.try_lock()
+        {
+            let mut content = String::new();
+            let _ = f.read_to_string(&mut content);
+            return Err(StoreError::Locked {
+                dir: dir.to_path_buf(),
+                holder: describe_holder(&content),
+                lock: path,
+            });
+        }
+    }
+    let (lock, _) = Lock::acquire(dir, Shard::ALL)?;
+    let runs_dir = dir.join(RUNS_DIR);
+    let series_dir = dir.join(SERIES_DIR);
+    let names: Vec<String> = list(&runs_dir)?
+        .into_iter()
+        .filter(|n| matches!(part_first(n), Some((_, true))))
+        .collect();
+    let Some(first_name) = names.first() else {
+        return Err(refuse(dir, "holds no runs: nothing to compact".into()));
+    };
+    let (_, kv) = read_all(&runs_dir.join(first_name))?;
+    let total: u64 = kv
+        .iter()
+        .find(|(k, _)| k == "mbmf_sweep_runs")
+        .and_then(|(_, v)| v.parse().ok())
+        .ok_or_else(|| {
+            refuse(
+                &runs_dir.join(first_name),
+                "names no sweep size (mbmf_sweep_runs): not written by mbmf sweep".into(),
+            )
+        })?;
+    let scan = scan(dir, total, &|_| true)?;
+    if scan.done.len() < total || !scan.leftovers.is_empty() {
+        return Err(refuse(
+            dir,
+            format!(
+                "is incomplete: {} of {total} runs are written{}; finish it with mbmf sweep \
+                 {SWEEP_FILE} --out {} --resume, then compact",
+                scan.done.len(),
+                if scan.leftovers.is_empty() {
+                    String::new()
+                } else {
+                    format!(" and {} unfinished file(s) remain", scan.leftovers.len())
+                },
+                dir.display()
+            ),
+        ));
+    }
+
+    // Group the parts (in run order within a group), then cut each group every target_runs.
+    let mut groups: std::collections::BTreeMap<Vec<String>, Vec<(String, u64)>> =
+        Default::default();
+    for name in &names {
+        let (batches, _) = read_all(&runs_dir.join(name))?;
+        let key = batches.first().map(part_group).unwrap_or_default();
+        let rows = batches.iter().map(|b| b.num_rows() as u64).sum();
+        groups.entry(key).or_default().push((name.clone(), rows));
+    }
+    let parent = dir
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    let base = dir
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "dataset".into());
+    let staging = parent.join(format!(".{base}.compact-{}", std::process::id()));
+    let aside = parent.join(format!(".{base}.pre-compact-{}", std::process::id()));
+    let _ = fs::remove_dir_all(&staging);
+    let result = (|| {
+        for sub in [RUNS_DIR, SERIES_DIR] {
+            fs::create_dir_all(staging.join(sub)).map_err(io("create", &staging.join(sub)))?;
+        }
+        fs::copy(dir.join(SWEEP_FILE), staging.join(SWEEP_FILE))
+            .map_err(io("write", &staging.join(SWEEP_FILE)))?;
+        let mut parts_after = 0;
+        let target = target_runs.max(1);
+        for parts in groups.values() {
+            let mut chunk: Vec<&(String, u64)> = Vec::new();
+            let mut runs_in_chunk = 0u64;
+            let mut flush = |chunk: &mut Vec<&(String, u64)>| {
+                if chunk.is_empty() {
+                    return Ok::<(), StoreError>(());
+                }
+                write_merged(&runs_dir, &series_dir, &staging, chunk, total)?;
+                parts_after += 1;
+                chunk.clear();
+                Ok(())
+            };
+            for part in parts {
+                if !chunk.is_empty() && runs_in_chunk + part.1 > target {
+                    flush(&mut chunk)?;
+                    runs_in_chunk = 0;
+                }
+                runs_in_chunk += part.1;
+                chunk.push(part);
+            }
+            flush(&mut chunk)?;
+        }
+        // The copy must hold every run exactly once before it replaces the original.
+        let check = self::scan(&staging, total, &|_| true)?;
+        if check.done.len() != total || !check.leftovers.is_empty() {
+            return Err(refuse(
+                &staging,
+                format!(
+                    "the merged copy holds {} of {total} runs; the dataset was left as it was",
+                    check.done.len()
+                ),
+            ));
+        }
+        sync_dir(&staging.join(RUNS_DIR));
+        sync_dir(&staging.join(SERIES_DIR));
+        Ok(parts_after)
+    })();
+    let parts_after = match result {
+        Ok(n) => n,
+        Err(e) => {
+            let _ = fs::remove_dir_all(&staging);
+            return Err(e);
+        }
+    };
+    // Kept until the swap: no writer can start while the old folder is locked.
+    drop(lock);
+    exchange(&staging, dir, &aside).map_err(|e| {
+        let _ = fs::remove_dir_all(&staging);
+        io("replace", dir)(e)
+    })?;
+    sync_dir(parent);
+    let _ = fs::remove_dir_all(&aside);
+    let _ = fs::remove_dir_all(&staging);
+    Ok(Compacted {
+        runs: total,
+        parts_before: names.len(),
+        parts_after,
+    })
+}
+
+/// Writes the parts of `chunk` (runs and series) as one part of `staging`.
+fn write_merged(
+    runs_dir: &Path,
+    series_dir: &Path,
+    staging: &Path,
+    chunk: &[&(String, u64)],
+    total: u64,
+) -> Result<(), StoreError> {
+    let first = chunk
+        .iter()
+        .filter_map(|p| part_first(&p.0))
+        .map(|f| f.0)
+        .min()
+        .unwrap_or(0);
+    let mut last = first;
+    for (part, _) in chunk {
+        let path = runs_dir.join(part);
+        let (runs, _) = read_runs_part(&path).map_err(|e| StoreError::BadPart {
+            path: path.clone(),
+            reason: format!("cannot be read ({e})"),
+        })?;
+        last = runs.into_iter().fold(last, u64::max);
+    }
+    let name = part_name(first, last, total);
+    // Series first, runs last, as a sweep commits a part.
+    for (from, sub) in [(series_dir, SERIES_DIR), (runs_dir, RUNS_DIR)] {
+        let mut sink: Option<output::ParquetSink> = None;
+        for (part, _) in chunk {
+            let (batches, kv) = read_all(&from.join(part))?;
+            for b in &batches {
+                let sink = match &mut sink {
+                    Some(s) => s,
+                    None => {
+                        // The first part's provenance, with the compaction's own added.
+                        let mut kv: Vec<(String, String)> = kv
+                            .iter()
+                            .filter(|(k, _)| {
+                                k != "ARROW:schema" && k != output::provenance::ENDED_KEY
+                            })
+                            .cloned()
+                            .collect();
+                        kv.push((
+                            "mbmf_compacted_by".into(),
+                            output::provenance::command_line(),
+                        ));
+                        kv.push((
+                            "mbmf_compacted_utc".into(),
+                            output::provenance::utc(std::time::SystemTime::now()),
+                        ));
+                        sink.insert(output::ParquetSink::new(&staging.join(sub).join(&name), kv))
+                    }
+                };
+                sink.write(b)?;
+            }
+        }
+        if let Some(s) = sink {
+            s.finish()?;
+        }
+    }
     Ok(())
 }
 

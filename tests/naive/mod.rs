@@ -12,7 +12,9 @@
 //! 2. the MC's draw (`rnd`, softmax selection, or an argmax tie),
 //! 3. the action,
 //! 4. the environment's outcome (pairs with several outcomes only),
-//! 5. the human's attentiveness at a congratulation or punishment opportunity;
+//! 5. the human's attentiveness at a nuisance opportunity (SPEC 11.2),
+//! 6. the human's attentiveness at a human-reward opportunity (SPEC 11.1),
+//! 7. the human's attentiveness at a congratulation or punishment opportunity;
 //!
 //! plus one draw for an initial state (at creation, at a reset step and at the end of babbling)
 //! when the environment has several. So a run simulated here can be compared bit for bit with the
@@ -22,6 +24,9 @@
 //! with the same mathematical value but different last bits; [`Arithmetic`] selects which order.
 //! [`NaiveRun::new`] follows the SPEC literally.
 //!
+//! Schedules of changes (SPEC 10) are read from their parsed events ([`Schedule`]) and applied
+//! here directly to the run's own copy of the environment, goal and human.
+//!
 //! Included by tests and benches with `#[path = "../tests/naive/mod.rs"] mod naive;` (from
 //! `benches/`) or `mod naive;` (from `tests/`).
 #![allow(dead_code)]
@@ -29,8 +34,13 @@
 use std::collections::{BTreeMap, HashMap, VecDeque};
 
 use mbmf::batch::{Checkpoint, RunStats, run_rng, uniform};
-use mbmf::env::{NO_TAKEOVER, Spec};
-use mbmf::params::{Controller, CostModel, Interaction, Params, Selection};
+use mbmf::env::tidy::{self, Variant};
+use mbmf::env::{NO_NUISANCE, NO_TAKEOVER, Spec};
+use mbmf::params::{
+    CongratulationEffect, Controller, CostModel, HumanParams, Interaction, Params, RewardSource,
+    Selection,
+};
+use mbmf::schedule::{Change, Event, Schedule};
 use rand_xoshiro::Xoshiro256PlusPlus;
 
 /// Divisor of the EC costs when both are 0 (SPEC 4: "a tiny constant"; the costs divided are
@@ -58,10 +68,23 @@ pub struct NaiveRun {
     rng: Xoshiro256PlusPlus,
     /// Current environment state.
     state: usize,
+    /// The last arrival was terminal: the next step is the reset step.
+    arrived_at_goal: bool,
     /// Steps taken, babbling included.
     t: u64,
     /// Interactions the human may still give.
     budget_left: u32,
+    /// The rewarded state now.
+    goal: usize,
+    /// Its reward now.
+    goal_reward: f64,
+    /// The human now.
+    human: HumanParams,
+    /// Who brings the goal's reward now.
+    reward_source: RewardSource,
+    /// The schedule's changes, by step (stable), and how many were applied.
+    changes: Vec<Change>,
+    applied: usize,
     /// MF action values `q_mf[s][a]`.
     q_mf: Vec<Vec<f64>>,
     /// MB action values `q_mb[s][a]`.
@@ -82,6 +105,8 @@ pub struct NaiveRun {
     window: Vec<Vec<VecDeque<usize>>>,
     /// Most recent reward received on each (s, a, s').
     last_reward: HashMap<(usize, usize, usize), f64>,
+    /// Whether the most recent arrival on each (s, a, s') was terminal (SPEC 10).
+    last_terminal: HashMap<(usize, usize, usize), bool>,
     stats: RunStats,
     series: Vec<Checkpoint>,
     /// Sum of P(MB) over the decisions since the last checkpoint.
@@ -95,6 +120,20 @@ impl NaiveRun {
     /// in an initial state (SPEC 3.3, 7). The SPEC's literal arithmetic.
     pub fn new(spec: &Spec, params: Params, seed: u64, run_index: u64) -> NaiveRun {
         NaiveRun::with_arithmetic(spec, params, seed, run_index, Arithmetic::Spec)
+    }
+
+    /// As [`NaiveRun::new`], following `schedule` (SPEC 10; assumed valid for the task).
+    pub fn with_schedule(
+        spec: &Spec,
+        params: Params,
+        seed: u64,
+        run_index: u64,
+        schedule: &Schedule,
+    ) -> NaiveRun {
+        let mut run = NaiveRun::with_arithmetic(spec, params, seed, run_index, Arithmetic::Spec);
+        run.changes = schedule.changes.clone();
+        run.changes.sort_by_key(|c| c.step);
+        run
     }
 
     /// As [`NaiveRun::new`], with the given evaluation order of the three formulas concerned.
@@ -112,15 +151,28 @@ impl NaiveRun {
         );
         let (n_s, n_a) = (spec.n_states, spec.n_actions);
         let mut rng = run_rng(seed, run_index);
-        let state = draw_initial_state(spec, &mut rng);
+        // A tidy1 run with its own box assignment lives in that task from the start.
+        let spec = if spec.name == "tidy1" {
+            tidy::build_with(Variant::Task1, params.boxes)
+        } else {
+            spec.clone()
+        };
+        let state = draw_initial_state(&spec, &mut rng);
         NaiveRun {
-            spec: spec.clone(),
+            goal: spec.goal as usize,
+            goal_reward: spec.goal_reward,
+            spec,
             params,
             arithmetic,
             rng,
             state,
+            arrived_at_goal: false,
             t: 0,
             budget_left: params.human.budget,
+            human: params.human,
+            reward_source: params.reward_source,
+            changes: Vec::new(),
+            applied: 0,
             q_mf: vec![vec![params.q_init; n_a]; n_s],
             q_mb: vec![vec![params.q_init; n_a]; n_s],
             avg_p_mf: vec![vec![1.0 / n_a as f64; n_a]; n_s],
@@ -131,6 +183,7 @@ impl NaiveRun {
             g: vec![vec![false; n_a]; n_s],
             window: vec![vec![VecDeque::new(); n_a]; n_s],
             last_reward: HashMap::new(),
+            last_terminal: HashMap::new(),
             stats: RunStats::default(),
             series: Vec::new(),
             window_p_mb: 0.0,
@@ -162,8 +215,23 @@ impl NaiveRun {
             (self.t - babbling_len) as u32
         };
 
-        if self.state == self.spec.goal as usize {
+        // SPEC 10: the events of this step apply before anything else of it.
+        while !babbling
+            && self.applied < self.changes.len()
+            && self.changes[self.applied].step == t_exp
+        {
+            if self.applied == 0 {
+                self.stats.first_change_step = t_exp;
+                self.stats.reward_before_change = self.stats.total_reward;
+            }
+            let event = self.changes[self.applied].event.clone();
+            self.apply(event);
+            self.applied += 1;
+        }
+
+        if self.arrived_at_goal {
             // SPEC 2.1: the reset step. Time passes; nothing is decided or learned.
+            self.arrived_at_goal = false;
             self.state = draw_initial_state(&self.spec, &mut self.rng);
         } else {
             self.act(babbling, t_exp);
@@ -171,6 +239,7 @@ impl NaiveRun {
 
         if babbling && self.t == babbling_len {
             // SPEC 7: end of babbling, back to an initial state (not a step).
+            self.arrived_at_goal = false;
             self.state = draw_initial_state(&self.spec, &mut self.rng);
         }
         if !babbling {
@@ -239,11 +308,72 @@ impl NaiveRun {
         self.budget_left
     }
 
+    /// One event of SPEC 10.
+    fn apply(&mut self, event: Event) {
+        match event {
+            Event::World(task) => {
+                let mut world = mbmf::env::load(&task).expect("a valid world");
+                world.initial_states = self.spec.initial_states.clone();
+                self.spec = world;
+            }
+            Event::Goal { state, reward } => {
+                self.goal = state as usize;
+                if let Some(r) = reward {
+                    self.goal_reward = r;
+                }
+            }
+            Event::Boxes(boxes) => {
+                self.spec = tidy::build_with(Variant::Task1, boxes);
+                self.goal = self.spec.goal as usize;
+            }
+            Event::Delete(pairs) => {
+                let spec = &self.spec;
+                let mut lists = Vec::new();
+                for s in 0..spec.n_states {
+                    for a in 0..spec.n_actions {
+                        let sa = s * spec.n_actions + a;
+                        let kept: Vec<_> = spec
+                            .outcomes(sa)
+                            .map(|o| (spec.outcome_state[o], spec.outcome_weight[o]))
+                            .filter(|&(next, _)| !pairs.contains(&(s as u32, next)))
+                            .collect();
+                        lists.push(kept);
+                    }
+                }
+                self.spec = Spec::from_outcomes(
+                    spec.name.clone(),
+                    spec.n_states,
+                    spec.n_actions,
+                    lists,
+                    spec.initial_states.clone(),
+                    spec.goal,
+                    spec.goal_reward,
+                    spec.state_names.clone(),
+                    spec.human.clone(),
+                );
+            }
+            Event::Interaction(i) => self.human.interaction = i,
+            Event::Budget(n) => self.budget_left = n,
+            Event::Forget(p) => self.human.forget_prob = p,
+            Event::Zeta(z) => self.human.zeta = z,
+            Event::Profile(p) => {
+                if let Some(h) = p.human(self.params.controller) {
+                    self.human = h;
+                    self.budget_left = h.budget;
+                }
+                if let Some(r) = p.reward_source() {
+                    self.reward_source = r;
+                }
+            }
+            Event::RewardSource(r) => self.reward_source = r,
+        }
+    }
+
     /// Steps 2 to 8 of SPEC 3.4 in a state that is not the goal.
     fn act(&mut self, babbling: bool, t_exp: u32) {
         let s = self.state;
         let human_present = !babbling && self.budget_left > 0;
-        let interaction = self.params.human.interaction;
+        let interaction = self.human.interaction;
 
         // 2. Takeover: the human puts the held cube instead of the robot.
         let mut human_action = None;
@@ -263,14 +393,48 @@ impl NaiveRun {
         };
 
         // 6. Environment.
-        let next = self.environment(s, a);
-        let reward = if babbling {
+        let mut next = self.environment(s, a);
+        // SPEC 11.2: a nuisance undoes a relevant action; the robot observes the undone state.
+        if human_present
+            && self.budget_left > 0
+            && interaction == Interaction::Nuisance
+            && self.is_relevant(s, a)
+        {
+            let undone = self.spec.human.as_ref().unwrap().nuisance[s * self.spec.n_actions + a];
+            if undone != NO_NUISANCE {
+                if self.human_is_attentive() {
+                    next = undone as usize;
+                    self.stats.nuisances += 1;
+                    self.spend_budget(t_exp);
+                } else {
+                    self.stats.forgotten += 1;
+                }
+            }
+        }
+        let at_goal = next == self.goal;
+        let mut reward = if babbling {
             0.0
-        } else if next == self.spec.goal as usize {
-            self.spec.goal_reward
+        } else if at_goal {
+            self.goal_reward
         } else {
             0.0
         };
+        // SPEC 11.1: only an attentive human with budget left brings the goal's reward.
+        if !babbling && at_goal && self.reward_source == RewardSource::Human {
+            let given = self.budget_left > 0
+                && if self.human_is_attentive() {
+                    true
+                } else {
+                    self.stats.forgotten += 1;
+                    false
+                };
+            if given {
+                self.stats.rewards_given += 1;
+                self.spend_budget(t_exp);
+            } else {
+                reward = 0.0;
+            }
+        }
 
         // 7. Feedback: G(s, a) = 1 after an attentive congratulation (or punishment), else 0.
         let mut given = false;
@@ -278,7 +442,7 @@ impl NaiveRun {
             let opportunity = match interaction {
                 Interaction::Congratulation => self.is_relevant(s, a),
                 Interaction::Punishment => self.is_error(s, a),
-                Interaction::None | Interaction::Takeover => false,
+                Interaction::None | Interaction::Takeover | Interaction::Nuisance => false,
             };
             if opportunity {
                 if self.human_is_attentive() {
@@ -294,14 +458,25 @@ impl NaiveRun {
                 }
             }
         }
-        self.g[s][a] = given;
+        // SPEC 11.3: a congratulation that shapes the reward is learned as r + zeta and never
+        // biases the softmax.
+        let shaping = interaction == Interaction::Congratulation
+            && self.params.congratulation_effect == CongratulationEffect::Reward;
+        let learned = if shaping && given {
+            reward + self.human.zeta
+        } else {
+            reward
+        };
+        self.g[s][a] = given && !shaping;
 
-        // 8. Learning.
+        // 8. Learning. The arrival is terminal when it is the goal at this time (SPEC 10).
+        let terminal = at_goal;
+        self.arrived_at_goal = terminal;
         if self.runs_mf() {
-            self.mf_learn(s, a, reward, next);
+            self.mf_learn(s, a, learned, next, terminal);
         }
         if self.runs_mb() {
-            self.mb_learn(s, a, reward, next);
+            self.mb_learn(s, a, learned, next, terminal);
         }
 
         if !babbling {
@@ -309,6 +484,9 @@ impl NaiveRun {
             if reward != 0.0 {
                 if self.stats.first_reward_step == 0 {
                     self.stats.first_reward_step = t_exp;
+                }
+                if self.stats.first_change_step > 0 && self.stats.first_reward_after_change == 0 {
+                    self.stats.first_reward_after_change = t_exp;
                 }
                 let steps = self.params.steps;
                 if t_exp > steps - steps / 10 {
@@ -444,10 +622,10 @@ impl NaiveRun {
 
     /// Eqs. 3 and 8: softmax of Q(s, a) + bonus * G(s, a).
     fn policy(&self, q_row: &[f64], s: usize) -> Vec<f64> {
-        let bonus = match self.params.human.interaction {
-            Interaction::Congratulation => self.params.human.zeta,
-            Interaction::Punishment => -self.params.human.zeta,
-            Interaction::None | Interaction::Takeover => 0.0,
+        let bonus = match self.human.interaction {
+            Interaction::Congratulation => self.human.zeta,
+            Interaction::Punishment => -self.human.zeta,
+            Interaction::None | Interaction::Takeover | Interaction::Nuisance => 0.0,
         };
         let biased: Vec<f64> = q_row
             .iter()
@@ -461,7 +639,6 @@ impl NaiveRun {
     /// ops (SPEC 6).
     fn value_iteration(&mut self) -> u64 {
         let (n_s, n_a) = (self.spec.n_states, self.spec.n_actions);
-        let goal = self.spec.goal as usize;
         let gamma = self.params.gamma_mb;
         let mut ops = 0;
         let mut sweeps = 0;
@@ -482,7 +659,7 @@ impl NaiveRun {
                     }
                     let mut value = 0.0;
                     for (&next, &p) in &t {
-                        let future = if next == goal {
+                        let future = if self.last_terminal[&(s, a, next)] {
                             0.0
                         } else {
                             max(&self.q_mb[next])
@@ -526,25 +703,23 @@ impl NaiveRun {
         self.window[s].iter().any(|w| !w.is_empty())
     }
 
-    /// Eq. 4; the goal is terminal.
-    fn mf_learn(&mut self, s: usize, a: usize, r: f64, next: usize) {
-        let future = if next == self.spec.goal as usize {
-            0.0
-        } else {
-            max(&self.q_mf[next])
-        };
+    /// Eq. 4; no future term after a terminal arrival.
+    fn mf_learn(&mut self, s: usize, a: usize, r: f64, next: usize, terminal: bool) {
+        let future = if terminal { 0.0 } else { max(&self.q_mf[next]) };
         let q = self.q_mf[s][a];
         self.q_mf[s][a] = q + self.params.alpha_mf * (r + self.params.gamma_mf * future - q);
     }
 
-    /// SPEC 3.2: keep the last N outcomes of (s, a) and the last reward of (s, a, s').
-    fn mb_learn(&mut self, s: usize, a: usize, r: f64, next: usize) {
+    /// SPEC 3.2 and 10: keep the last N outcomes of (s, a), and the last reward of (s, a, s') and
+    /// whether that arrival was terminal.
+    fn mb_learn(&mut self, s: usize, a: usize, r: f64, next: usize, terminal: bool) {
         let kept = &mut self.window[s][a];
         kept.push_back(next);
         if kept.len() > self.params.window_n as usize {
             kept.pop_front();
         }
         self.last_reward.insert((s, a, next), r);
+        self.last_terminal.insert((s, a, next), terminal);
     }
 
     /// The environment's answer to (s, a): one draw only when several outcomes are possible.
@@ -560,7 +735,7 @@ impl NaiveRun {
     }
 
     fn human_is_attentive(&mut self) -> bool {
-        uniform(&mut self.rng) >= self.params.human.forget_prob
+        uniform(&mut self.rng) >= self.human.forget_prob
     }
 
     fn spend_budget(&mut self, t_exp: u32) {
@@ -620,7 +795,9 @@ impl NaiveRun {
             decisions: self.window_decisions,
             interactions: self.stats.congratulations
                 + self.stats.takeovers
-                + self.stats.punishments,
+                + self.stats.punishments
+                + self.stats.rewards_given
+                + self.stats.nuisances,
         });
         self.window_p_mb = 0.0;
         self.window_decisions = 0;
@@ -669,9 +846,12 @@ pub fn entropy_bits(p: &[f64]) -> f64 {
     h
 }
 
-/// Entropy divided by log2(|A|) (SPEC 3.3).
+/// Entropy divided by log2(|A|), so that it lies in [0, 1] (SPEC 3.3): rounding can put a
+/// near-uniform averaged distribution a hair above log2(|A|) bits (an average of uniform
+/// distributions that is not exactly 1/|A|, as in a state first decided in after a goal change),
+/// so the quotient is clamped to the interval the SPEC gives it.
 pub fn normalised_entropy(p: &[f64]) -> f64 {
-    entropy_bits(p) / (p.len() as f64).log2()
+    (entropy_bits(p) / (p.len() as f64).log2()).clamp(0.0, 1.0)
 }
 
 /// Moving average: (1 - alpha) * old + alpha * new.

@@ -1,0 +1,141 @@
+//! Line charts: curves with optional bands, a legend on the right.
+
+use super::*;
+
+pub(super) struct LineSeries {
+    pub(super) label: String,
+    pub(super) colour: RGBColor,
+    pub(super) points: Vec<(f64, f64)>,
+    /// `(x, y - band, y + band)` per point, if the series has a band.
+    pub(super) band: Option<Vec<(f64, f64, f64)>>,
+}
+
+pub(super) struct LineFigure<'a> {
+    pub(super) chart: &'a LineChart,
+    pub(super) series: Vec<LineSeries>,
+    pub(super) x: Axis,
+    pub(super) y: Axis,
+}
+
+/// Series with at most this many points get a marker on each point.
+pub(super) const MARKER_LIMIT: usize = 25;
+
+impl<'a> LineFigure<'a> {
+    pub(super) fn new(chart: &'a LineChart, figure: &str) -> Result<Self, PlotError> {
+        if chart.series.is_empty() {
+            return Err(empty(figure, "series list"));
+        }
+        for s in &chart.series {
+            let name = |part: &str| format!("series '{}' {part}", s.label);
+            if s.x.is_empty() {
+                return Err(empty(figure, &format!("series '{}'", s.label)));
+            }
+            check_len(figure, &name("y"), s.x.len(), s.y.len())?;
+            check_values(figure, &name("x"), &s.x, false)?;
+            check_values(figure, &name("y"), &s.y, false)?;
+            if let Some(band) = &s.band {
+                check_len(figure, &name("band"), s.x.len(), band.len())?;
+                check_values(figure, &name("band"), band, true)?;
+            }
+        }
+        let labels: Vec<&str> = chart.series.iter().map(|s| s.label.as_str()).collect();
+        let colours = label_colours(&labels);
+        let series: Vec<LineSeries> = chart
+            .series
+            .iter()
+            .zip(colours)
+            .map(|(s, colour)| {
+                let keep: Vec<usize> = (0..s.x.len())
+                    .filter(|&i| drawable(s.x[i], s.y[i], chart.log_x, chart.log_y))
+                    .collect();
+                LineSeries {
+                    label: s.label.clone(),
+                    colour,
+                    points: keep.iter().map(|&i| (s.x[i], s.y[i])).collect(),
+                    band: s.band.as_ref().map(|b| {
+                        keep.iter()
+                            .map(|&i| (s.x[i], s.y[i] - b[i], s.y[i] + b[i]))
+                            .collect()
+                    }),
+                }
+            })
+            .collect();
+        if series.iter().all(|s| s.points.is_empty()) {
+            let xs: Vec<f64> = chart.series.iter().flat_map(|s| s.x.clone()).collect();
+            return Err(no_positive(figure, &xs, chart.log_x));
+        }
+        let (x_min, x_max) = extent(series.iter().flat_map(|s| s.points.iter().map(|p| p.0)));
+        let ys = series.iter().flat_map(|s| {
+            let band = s.band.iter().flatten().flat_map(|&(_, lo, hi)| [lo, hi]);
+            s.points.iter().map(|p| p.1).chain(band)
+        });
+        let (y_min, y_max) = extent(ys.filter(|&y| !chart.log_y || y > 0.0));
+        Ok(Self {
+            chart,
+            series,
+            x: Axis::covering(x_min, x_max, chart.log_x, true),
+            y: Axis::covering(y_min, y_max, chart.log_y, true),
+        })
+    }
+}
+
+impl Figure for LineFigure<'_> {
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> DrawResult<DB> {
+        let area = titled_area(root, &self.chart.title)?;
+        let labels: Vec<&str> = self.series.iter().map(|s| s.label.as_str()).collect();
+        let legend_w = legend_width(&area, &labels)?;
+        let (plot_area, legend_area) = split_for_legend(&area, legend_w);
+        let mut chart = xy_chart(
+            &plot_area,
+            self.x,
+            self.y,
+            &self.chart.x_label,
+            &self.chart.y_label,
+        )?;
+        for s in &self.series {
+            if let Some(band) = &s.band {
+                if band.len() >= 2 {
+                    let outline: Vec<(f64, f64)> = band
+                        .iter()
+                        .map(|&(x, _, hi)| (x, hi))
+                        .chain(band.iter().rev().map(|&(x, lo, _)| (x, lo)))
+                        .collect();
+                    chart.draw_series(std::iter::once(Polygon::new(
+                        outline,
+                        s.colour.mix(0.18).filled(),
+                    )))?;
+                } else if let Some(&(x, lo, hi)) = band.first() {
+                    chart.draw_series(std::iter::once(PathElement::new(
+                        vec![(x, lo), (x, hi)],
+                        s.colour.mix(0.5).stroke_width(6),
+                    )))?;
+                }
+            }
+        }
+        for s in &self.series {
+            chart.draw_series(std::iter::once(PathElement::new(
+                s.points.clone(),
+                s.colour.stroke_width(2),
+            )))?;
+            if s.points.len() <= MARKER_LIMIT {
+                chart.draw_series(
+                    s.points
+                        .iter()
+                        .map(|&p| Circle::new(p, 4, s.colour.filled())),
+                )?;
+            }
+        }
+        let entries: Vec<(String, Swatch)> = self
+            .series
+            .iter()
+            .map(|s| {
+                let swatch = Swatch::Line {
+                    colour: s.colour,
+                    band: s.band.is_some(),
+                };
+                (s.label.clone(), swatch)
+            })
+            .collect();
+        draw_legend(&legend_area, &entries, 30)
+    }
+}

@@ -1,0 +1,386 @@
+//! Figures of the paper reproduction and of the Pareto front, drawn with `plotters`.
+//!
+//! Data in, files out: each chart is a plain record (`LineChart`, `BarChart`, `ScatterChart`)
+//! and each drawing function writes `<path>.svg` and `<path>.png` (900 x 600 px) and returns both
+//! paths. Input is validated before anything is drawn: empty data, NaN or infinite values,
+//! mismatched lengths and out-of-range indices give a typed [`PlotError`], never a panic.
+//!
+//! - Colours follow the series label, so one controller looks the same in every figure: labels
+//!   whose first word is `mf`, `mb`, `rnd` or `ec` (any case) get fixed colours from the
+//!   Okabe-Ito colour-blind-safe palette (several labels of one controller in a figure, such as
+//!   `EC` and `EC, takeover`, get shades of it: the bare name keeps the colour); other labels
+//!   take a palette colour chosen by a hash of the label (stable across figures unless two
+//!   labels of one figure collide).
+//! - Every file is written next to its target as `<name>.tmp.svg` / `<name>.tmp.png` and then
+//!   renamed, so a killed process never leaves a truncated figure. Missing parent folders are
+//!   created.
+//! - The SVG is drawn once; the PNG is that SVG rendered by `resvg`, so the two always agree.
+//!   Text is measured, and set in PNGs, with DejaVu Sans, embedded in the binary
+//!   (`assets/DejaVuSans.ttf`, Bitstream Vera licence, see `assets/LICENSE-DejaVu.txt`). SVG
+//!   files hold `<text>` elements in the viewer's `sans-serif` font at the same size.
+//!
+//! One module per concern: `axis` (ranges, ticks, number format), `colour` (label
+//! colours), `text` (the text-measuring backend wrapper), `panel` (title, legend, mesh shared
+//! by every chart), `line`, `bar` and `scatter` (one chart kind each) and `render` (the
+//! SVG and PNG files).
+//!
+//! NOTE: `plotters`' own `ab_glyph` text measure takes the font size for the line height,
+//! not for the em its SVG backend writes (`size / 1.24`), so labels would be laid out for text
+//! about 6% too wide. The SVG backend is therefore wrapped in `Typeset`, which measures text
+//! with the embedded font at the size the SVG declares.
+
+use std::fs::{self, File};
+use std::io::{self, Write};
+use std::ops::Range;
+use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
+
+use ab_glyph::FontRef;
+use plotters::coord::Shift;
+use plotters::coord::ranged1d::{KeyPointHint, NoDefaultFormatting, Ranged, ValueFormatter};
+use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
+use plotters::style::{FontStyle, register_font};
+use thiserror::Error;
+
+mod axis;
+mod bar;
+mod colour;
+mod line;
+mod panel;
+mod render;
+mod scatter;
+#[cfg(test)]
+mod tests;
+mod text;
+
+use axis::*;
+use bar::*;
+use colour::*;
+use line::*;
+use panel::DrawResult;
+use panel::*;
+use render::*;
+use scatter::*;
+use text::Typeset;
+
+/// Width of every figure, in pixels (the PNG size; the SVG uses the same user units).
+pub const WIDTH: u32 = 900;
+/// Height of every figure, in pixels.
+pub const HEIGHT: u32 = 600;
+
+/// DejaVu Sans: PNGs have no system fonts to fall back on.
+static FONT_BYTES: &[u8] = include_bytes!("../assets/DejaVuSans.ttf");
+/// The family name every text style here uses (and the SVG files name).
+const FONT: &str = "sans-serif";
+/// The embedded font's family name, which resvg resolves `sans-serif` to.
+const FONT_FAMILY: &str = "DejaVu Sans";
+
+/// `plotters` font size for an em of `px` pixels: its SVG backend writes `size / 1.24`.
+const fn em(px: f64) -> f64 {
+    px * 1.24
+}
+const TITLE_SIZE: f64 = em(22.0);
+const DESC_SIZE: f64 = em(18.0);
+const TICK_SIZE: f64 = em(16.0);
+const LEGEND_SIZE: f64 = em(16.0);
+const NOTE_SIZE: f64 = em(16.0);
+const POINT_LABEL_SIZE: f64 = em(14.0);
+
+const GRID: RGBColor = RGBColor(225, 225, 225);
+const AXIS: RGBColor = RGBColor(60, 60, 60);
+
+/// Failure to validate or write a figure. Each message names the figure (its path) and the bad
+/// input.
+#[derive(Debug, Error)]
+pub enum PlotError {
+    /// There is nothing to draw.
+    #[error("figure '{figure}': {what} is empty; give at least one value")]
+    Empty {
+        /// The figure's path without extension.
+        figure: String,
+        /// Which input is empty.
+        what: String,
+    },
+    /// A value is NaN, infinite, or (for a band or error bar) negative.
+    #[error("figure '{figure}': {what}[{index}] is {value}; expected {expected}")]
+    InvalidValue {
+        /// The figure's path without extension.
+        figure: String,
+        /// Which input holds the value.
+        what: String,
+        /// Position of the value in that input.
+        index: usize,
+        /// The offending value.
+        value: f64,
+        /// What would be accepted.
+        expected: &'static str,
+    },
+    /// Two inputs that go together have different lengths.
+    #[error("figure '{figure}': {what} has {found} values but {expected} were expected")]
+    LengthMismatch {
+        /// The figure's path without extension.
+        figure: String,
+        /// Which input has the wrong length.
+        what: String,
+        /// The length it should have.
+        expected: usize,
+        /// The length it has.
+        found: usize,
+    },
+    /// An index refers to no item.
+    #[error("figure '{figure}': {what} refers to index {index} but there are only {len} items")]
+    IndexOutOfRange {
+        /// The figure's path without extension.
+        figure: String,
+        /// Which input holds the index.
+        what: String,
+        /// The offending index.
+        index: usize,
+        /// How many items there are.
+        len: usize,
+    },
+    /// A logarithmic axis has no positive value left to draw.
+    #[error(
+        "figure '{figure}': the {axis} axis is logarithmic but no point has a positive {axis} \
+         value; use a linear axis or give positive values"
+    )]
+    NoPositiveValues {
+        /// The figure's path without extension.
+        figure: String,
+        /// `"x"` or `"y"`.
+        axis: &'static str,
+    },
+    /// The embedded font could not be registered with `plotters`.
+    #[error("registering the embedded DejaVu Sans font failed: {0}")]
+    Font(String),
+    /// `plotters` failed while drawing.
+    #[error("drawing '{path}' failed: {message}")]
+    Draw {
+        /// The file being drawn.
+        path: PathBuf,
+        /// The backend's message.
+        message: String,
+    },
+    /// Creating, writing or renaming a file failed.
+    #[error("writing '{path}' failed: {source}")]
+    Io {
+        /// The file or folder concerned.
+        path: PathBuf,
+        /// The underlying error.
+        source: io::Error,
+    },
+}
+
+/// One curve of a [`LineChart`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct Series {
+    /// Legend text; also picks the colour (`mf`, `mb`, `rnd`, `ec` have fixed ones).
+    pub label: String,
+    /// Abscissae, drawn in the given order.
+    pub x: Vec<f64>,
+    /// Ordinates, one per `x`.
+    pub y: Vec<f64>,
+    /// Half-width of a translucent band drawn from `y - band` to `y + band` (e.g. a standard
+    /// error), one per `x`, each finite and >= 0.
+    pub band: Option<Vec<f64>>,
+}
+
+/// Curves sharing two axes, with a legend to the right of the plot.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LineChart {
+    /// Title above the plot (may be empty).
+    pub title: String,
+    /// Text under the x axis.
+    pub x_label: String,
+    /// Text beside the y axis.
+    pub y_label: String,
+    /// The curves, at least one.
+    pub series: Vec<Series>,
+    /// Logarithmic x axis: points with x <= 0 are left out.
+    pub log_x: bool,
+    /// Logarithmic y axis: points with y <= 0 are left out; bands are cut at the axis bottom.
+    pub log_y: bool,
+}
+
+/// One bar of a [`BarChart`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct Bar {
+    /// Text under the bar (or in the legend if the labels do not fit); also picks the colour.
+    pub label: String,
+    /// Height of the bar, from 0.
+    pub value: f64,
+    /// Half-length of an error bar centred on `value` (finite, >= 0).
+    pub error: Option<f64>,
+    /// Bars with the same group are drawn side by side, groups in order of first appearance,
+    /// with the group name under them.
+    pub group: String,
+}
+
+/// Grouped bars with error bars and significance brackets.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BarChart {
+    /// Title above the plot (may be empty).
+    pub title: String,
+    /// Text beside the y axis.
+    pub y_label: String,
+    /// The bars, at least one.
+    pub bars: Vec<Bar>,
+    /// Significance marks `(i, j, text)`: a bracket between bars `i` and `j` (indices into
+    /// `bars`) with `text` above it, e.g. `"***"` or `"n.s."`; with `i == j` the text alone
+    /// stands above bar `i`. Overlapping brackets are stacked.
+    pub annotations: Vec<(usize, usize, String)>,
+}
+
+/// Points on two axes, with a highlighted subset (a Pareto front) and an optional marked point
+/// (its knee).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ScatterChart {
+    /// Title above the plot (may be empty).
+    pub title: String,
+    /// Text under the x axis.
+    pub x_label: String,
+    /// Text beside the y axis.
+    pub y_label: String,
+    /// All points `(x, y)`, at least one.
+    pub points: Vec<(f64, f64)>,
+    /// Indices into `points` of the front: drawn larger and joined in order of x.
+    pub highlighted: Vec<usize>,
+    /// Index into `points` of the knee point: ringed and labelled "knee".
+    pub marked: Option<usize>,
+    /// Either empty or one text per point (e.g. its kappa); shown next to highlighted and
+    /// marked points where there is room.
+    pub point_labels: Vec<String>,
+    /// Logarithmic x axis: points with x <= 0 are left out.
+    pub log_x: bool,
+    /// Logarithmic y axis: points with y <= 0 are left out.
+    pub log_y: bool,
+}
+
+/// Writes `chart` to `path_without_ext` + `.svg` and `.png`; returns both paths.
+///
+/// # Errors
+/// [`PlotError`] if the chart has no series, a series is empty, lengths differ, a value is not
+/// finite, a band is negative, a logarithmic axis has no positive value, or a file cannot be
+/// written.
+pub fn line_chart(chart: &LineChart, path_without_ext: &Path) -> Result<Vec<PathBuf>, PlotError> {
+    let figure = LineFigure::new(chart, &figure_name(path_without_ext))?;
+    write_figure(&figure, path_without_ext)
+}
+
+/// Writes `chart` to `path_without_ext` + `.svg` and `.png`; returns both paths.
+///
+/// # Errors
+/// [`PlotError`] if there are no bars, a value or error is not finite, an error is negative,
+/// an annotation names a missing bar, or a file cannot be written.
+pub fn bar_chart(chart: &BarChart, path_without_ext: &Path) -> Result<Vec<PathBuf>, PlotError> {
+    let figure = BarFigure::new(chart, &figure_name(path_without_ext))?;
+    write_figure(&figure, path_without_ext)
+}
+
+/// Writes `chart` to `path_without_ext` + `.svg` and `.png`; returns both paths.
+///
+/// # Errors
+/// [`PlotError`] if there are no points, a coordinate is not finite, an index is out of range,
+/// `point_labels` is neither empty nor one per point, a logarithmic axis has no positive
+/// value, or a file cannot be written.
+pub fn scatter_chart(
+    chart: &ScatterChart,
+    path_without_ext: &Path,
+) -> Result<Vec<PathBuf>, PlotError> {
+    let figure = ScatterFigure::new(chart, &figure_name(path_without_ext))?;
+    write_figure(&figure, path_without_ext)
+}
+
+// ---------------------------------------------------------------------------------------------
+// Validation
+
+/// The name errors use for a figure: its path without extension.
+fn figure_name(path: &Path) -> String {
+    path.display().to_string()
+}
+
+/// Every value finite (and >= 0 if `non_negative`).
+fn check_values(
+    figure: &str,
+    what: &str,
+    values: &[f64],
+    non_negative: bool,
+) -> Result<(), PlotError> {
+    let expected = if non_negative {
+        "a finite number >= 0"
+    } else {
+        "a finite number"
+    };
+    match values
+        .iter()
+        .position(|v| !v.is_finite() || (non_negative && *v < 0.0))
+    {
+        Some(index) => Err(PlotError::InvalidValue {
+            figure: figure.to_string(),
+            what: what.to_string(),
+            index,
+            value: values[index],
+            expected,
+        }),
+        None => Ok(()),
+    }
+}
+
+fn check_len(figure: &str, what: &str, expected: usize, found: usize) -> Result<(), PlotError> {
+    if expected == found {
+        Ok(())
+    } else {
+        Err(PlotError::LengthMismatch {
+            figure: figure.to_string(),
+            what: what.to_string(),
+            expected,
+            found,
+        })
+    }
+}
+
+fn check_index(figure: &str, what: &str, index: usize, len: usize) -> Result<(), PlotError> {
+    if index < len {
+        Ok(())
+    } else {
+        Err(PlotError::IndexOutOfRange {
+            figure: figure.to_string(),
+            what: what.to_string(),
+            index,
+            len,
+        })
+    }
+}
+
+fn empty(figure: &str, what: &str) -> PlotError {
+    PlotError::Empty {
+        figure: figure.to_string(),
+        what: what.to_string(),
+    }
+}
+
+/// Whether a point can be drawn on the given axes (positive coordinates on log axes).
+fn drawable(x: f64, y: f64, log_x: bool, log_y: bool) -> bool {
+    (!log_x || x > 0.0) && (!log_y || y > 0.0)
+}
+
+/// The error for a log chart with no drawable point: names the axis that rules them all out.
+fn no_positive(figure: &str, xs: &[f64], log_x: bool) -> PlotError {
+    let axis = if log_x && xs.iter().all(|&x| x <= 0.0) {
+        "x"
+    } else {
+        "y"
+    };
+    PlotError::NoPositiveValues {
+        figure: figure.to_string(),
+        axis,
+    }
+}
+
+/// Smallest and largest of `values` (which must not be empty).
+fn extent(values: impl Iterator<Item = f64>) -> (f64, f64) {
+    values.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
+        (lo.min(v), hi.max(v))
+    })
+}
