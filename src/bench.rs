@@ -266,6 +266,7 @@ pub fn write_growth(points: &[GrowthPoint], out: &Path) -> anyhow::Result<Vec<Pa
         series: series_of(&|p| p.seconds_per_step * 1e6),
         log_x: true,
         log_y: true,
+        x_marks: Vec::new(),
     };
     let mut written = line_chart(&time, &out.join("growth_time"))?;
     // Every controller allocates both experts' tables, so memory does not depend on it.
@@ -281,6 +282,7 @@ pub fn write_growth(points: &[GrowthPoint], out: &Path) -> anyhow::Result<Vec<Pa
         series: memory_series,
         log_x: true,
         log_y: true,
+        x_marks: Vec::new(),
     };
     written.extend(line_chart(&memory, &out.join("growth_memory"))?);
     written.insert(0, csv_path);

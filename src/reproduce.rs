@@ -944,6 +944,7 @@ impl Report<'_> {
                     series,
                     log_x: false,
                     log_y: what == "cost",
+                    x_marks: Vec::new(),
                 };
                 let path = dir.join(format!("fig{fig}_{task}_{what}_curves"));
                 add(chart.title.clone(), plot::line_chart(&chart, &path)?);
@@ -1054,6 +1055,7 @@ impl Report<'_> {
             series,
             log_x: false,
             log_y: false,
+            x_marks: Vec::new(),
         };
         add(
             chart.title.clone(),
@@ -1100,6 +1102,7 @@ impl Report<'_> {
                 series,
                 log_x: false,
                 log_y: false,
+                x_marks: Vec::new(),
             };
             add(
                 chart.title.clone(),

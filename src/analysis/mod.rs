@@ -3,11 +3,13 @@
 //! - [`dataset`] reads what `mbmf run` and `mbmf sweep` write into a columnar [`dataset::Table`].
 //! - [`front`] aggregates runs by configuration and finds the Pareto front (`mbmf pareto`).
 //! - [`compare`] tests a metric between groups of runs (`mbmf stats`).
+//! - [`curves`] computes mean curves with standard errors from the series table (`mbmf plot`).
 //! - [`min_budget`] finds the smallest sufficient interaction budget (`mbmf min-budget`).
 //! - [`pareto`] and [`stats`] hold the algorithms they use; the verbs that print
 //!   them are the command line's.
 
 pub mod compare;
+pub mod curves;
 pub mod dataset;
 pub mod front;
 pub mod min_budget;

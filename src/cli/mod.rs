@@ -20,6 +20,7 @@ pub mod analysis;
 pub mod args;
 pub mod bench;
 pub mod env;
+pub mod plot;
 pub mod progress;
 pub mod reproduce;
 pub mod run;
@@ -117,6 +118,8 @@ pub enum Command {
     Stats(analysis::StatsArgs),
     /// Smallest interaction budget reaching the best accumulation rate, per controller.
     MinBudget(analysis::MinBudgetArgs),
+    /// Mean curves per group (with a standard-error band) from a dataset's series, changes marked.
+    Plot(plot::PlotArgs),
     /// Run the paper's experiments and write its figures and a claim-by-claim report.
     Reproduce(reproduce::ReproduceArgs),
     /// Print the headline speed figures of this machine in about a minute.
@@ -150,6 +153,7 @@ pub fn main_with_args(args: impl IntoIterator<Item = std::ffi::OsString>) -> Res
         Command::Pareto(args) => analysis::pareto(args),
         Command::Stats(args) => analysis::stats(args),
         Command::MinBudget(args) => analysis::min_budget(args),
+        Command::Plot(args) => plot::plot(args),
         Command::Reproduce(args) => reproduce::command(args),
         Command::Bench(args) => bench::command(args),
         Command::Env(cmd) => env::command(cmd),

@@ -38,6 +38,7 @@ impl<'a> LineFigure<'a> {
                 check_values(figure, &name("band"), band, true)?;
             }
         }
+        check_values(figure, "x_marks", &chart.x_marks, false)?;
         let labels: Vec<&str> = chart.series.iter().map(|s| s.label.as_str()).collect();
         let colours = label_colours(&labels);
         let series: Vec<LineSeries> = chart
@@ -92,6 +93,14 @@ impl Figure for LineFigure<'_> {
             &self.chart.x_label,
             &self.chart.y_label,
         )?;
+        for &x in &self.chart.x_marks {
+            if x >= self.x.lo && x <= self.x.hi {
+                chart.draw_series(std::iter::once(PathElement::new(
+                    vec![(x, self.y.lo), (x, self.y.hi)],
+                    AXIS.mix(0.6).stroke_width(2),
+                )))?;
+            }
+        }
         for s in &self.series {
             if let Some(band) = &s.band {
                 if band.len() >= 2 {

@@ -201,6 +201,9 @@ pub struct LineChart {
     pub log_x: bool,
     /// Logarithmic y axis: points with y <= 0 are left out; bands are cut at the axis bottom.
     pub log_y: bool,
+    /// Abscissae of thin vertical marks across the plot (e.g. the steps at which a run's world
+    /// changes), each finite; marks outside the x axis are not drawn.
+    pub x_marks: Vec<f64>,
 }
 
 /// One bar of a [`BarChart`].

@@ -62,6 +62,7 @@ fn reward_chart() -> LineChart {
         series: vec![make("MF", 0.05), make("MB", 0.03), make("EC", 0.045)],
         log_x: false,
         log_y: false,
+        x_marks: vec![5000.0],
     }
 }
 
@@ -290,6 +291,15 @@ fn nan_and_infinite_values_are_errors_naming_the_value() {
     let err = line_chart(&chart, &dir.join("a")).unwrap_err();
     assert!(
         matches!(&err, PlotError::InvalidValue { index: 1, what, .. } if what == "series 'EC' y"),
+        "{err}"
+    );
+    let chart = LineChart {
+        x_marks: vec![f64::NAN],
+        ..reward_chart()
+    };
+    let err = line_chart(&chart, &dir.join("marks")).unwrap_err();
+    assert!(
+        matches!(&err, PlotError::InvalidValue { what, .. } if what == "x_marks"),
         "{err}"
     );
     let mut bar = bars();
