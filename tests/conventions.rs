@@ -165,3 +165,73 @@ fn sweep_json_counts_the_runs() {
     assert!(report["parts_written"].as_u64().expect("parts") >= 1);
     assert_eq!(report["out"], out.to_str().expect("UTF-8 path"));
 }
+
+#[test]
+fn analysis_verbs_print_json() {
+    let dir = TempDir::new().expect("a temporary folder");
+    let data = dir.path().join("run");
+    let data = data.to_str().expect("UTF-8 path");
+    stdout_of(&["run", "--runs", "4", "--steps", "300", "-q", "--out", data]);
+    let analysis = dir.path().join("analysis");
+    let analysis = analysis.to_str().expect("UTF-8 path");
+
+    let stats: serde_json::Value =
+        serde_json::from_str(&stdout_of(&["stats", data, "--by", "controller", "--json"]))
+            .expect("stats: one JSON object");
+    assert_eq!(stats["verb"], "stats");
+    assert_eq!(stats["groups"].as_array().expect("groups").len(), 4);
+    assert_eq!(
+        stats["pairs"].as_array().expect("pairs").len(),
+        6,
+        "4 choose 2"
+    );
+    assert!(stats["groups"][0]["n"] == 4);
+
+    let pareto: serde_json::Value = serde_json::from_str(&stdout_of(&[
+        "pareto",
+        data,
+        "--no-plot",
+        "--json",
+        "--out",
+        analysis,
+    ]))
+    .expect("pareto: one JSON object");
+    assert_eq!(pareto["verb"], "pareto");
+    assert_eq!(pareto["runs"], 16);
+    assert_eq!(pareto["configurations"], 4);
+    let front = pareto["front"].as_array().expect("front");
+    assert!(!front.is_empty() && front.len() <= 4);
+    assert!(front[0]["total_reward_mean"].is_number(), "{}", front[0]);
+    let file = pareto["files"][0].as_str().expect("a file");
+    assert!(std::path::Path::new(file).is_file());
+
+    let sweep = dir.path().join("budget.toml");
+    std::fs::write(
+        &sweep,
+        "seeds = 3\nmaster_seed = 5\n[fixed]\ntask = \"tidy1\"\nsteps = 300\nbabbling = 100\n\
+         controller = \"ec\"\ninteraction = \"takeover\"\n[grid]\nbudget = [0, 10]\n",
+    )
+    .expect("write the sweep");
+    let budget = dir.path().join("budget");
+    let budget = budget.to_str().expect("UTF-8 path");
+    stdout_of(&[
+        "sweep",
+        sweep.to_str().expect("UTF-8"),
+        "-q",
+        "--out",
+        budget,
+    ]);
+    let min: serde_json::Value = serde_json::from_str(&stdout_of(&[
+        "min-budget",
+        budget,
+        "--json",
+        "--out",
+        analysis,
+    ]))
+    .expect("min-budget: one JSON object");
+    assert_eq!(min["verb"], "min-budget");
+    let groups = min["groups"].as_array().expect("groups");
+    assert_eq!(groups.len(), 1);
+    assert_eq!(groups[0]["budgets"], serde_json::json!([0, 10]));
+    assert!(std::path::Path::new(min["files"][0].as_str().expect("file")).is_file());
+}
