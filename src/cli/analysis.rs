@@ -48,6 +48,10 @@ pub struct ParetoArgs {
     /// Write no figure.
     #[arg(long)]
     pub no_plot: bool,
+    /// Print one JSON object on stdout instead of the table (files written, counts, the front's
+    /// rows); notes go to stderr.
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// `mbmf stats`.
@@ -65,6 +69,9 @@ pub struct StatsArgs {
     /// Numeric column to compare (e.g. total_reward, cost_total, mean_entropy_chosen).
     #[arg(long, default_value = "total_reward")]
     pub metric: String,
+    /// Print one JSON object on stdout instead of the tables (the groups and the pairs).
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// `mbmf min-budget`.
@@ -87,6 +94,9 @@ pub struct MinBudgetArgs {
     /// Also print every budget of every group (mean, sd, the budgets that beat it).
     #[arg(long)]
     pub levels: bool,
+    /// Print one JSON object on stdout instead of the table (file written, one row per group).
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// Reads the runs of `dir` and applies the filters.
@@ -122,7 +132,9 @@ fn analysis_failure(e: AnalysisError) -> Failure {
 pub fn pareto(args: &ParetoArgs) -> Result<(), Failure> {
     let table = load(&args.data.dir, &args.data.filters)?;
     let front = Front::compute(&table, &args.objectives).map_err(analysis_failure)?;
-    print_front(&front, table.len());
+    if !args.json {
+        print_front(&front, table.len());
+    }
     let folder = args
         .out
         .clone()
@@ -133,12 +145,57 @@ pub fn pareto(args: &ParetoArgs) -> Result<(), Failure> {
         match front_chart(&front) {
             Some(chart) => written
                 .extend(plot::scatter_chart(&chart, &folder.join("pareto")).map_err(runtime)?),
+            None if args.json => eprintln!("no figure: it needs two objectives with finite means"),
             None => outln!("no figure: it needs two objectives with finite means"),
         }
     }
     let shown: Vec<String> = written.iter().map(|p| p.display().to_string()).collect();
-    outln!("wrote {}", shown.join(", "));
+    if args.json {
+        outln!("{}", front_json(&front, table.len(), &shown));
+    } else {
+        outln!("wrote {}", shown.join(", "));
+    }
     Ok(())
+}
+
+/// The `--json` report of `mbmf pareto`: one row per front member, in the table's order.
+fn front_json(front: &Front, runs: usize, files: &[String]) -> serde_json::Value {
+    let c = &front.configs;
+    let rows: Vec<serde_json::Value> = front
+        .members()
+        .iter()
+        .map(|&i| {
+            let mut row = serde_json::Map::new();
+            for k in &c.varying {
+                let value = c.key_value(i, k).map(|v| v.to_string());
+                row.insert(k.clone(), serde_json::json!(value));
+            }
+            row.insert("n".to_owned(), serde_json::json!(c.rows[i].len()));
+            for (o, objective) in front.objectives.iter().enumerate() {
+                row.insert(
+                    format!("{}_mean", objective.name),
+                    serde_json::json!(front.objective_mean(i, o)),
+                );
+                row.insert(
+                    format!("{}_ci95", objective.name),
+                    serde_json::json!(front.objective_ci95(i, o)),
+                );
+            }
+            row.insert("knee".to_owned(), serde_json::json!(front.knee == Some(i)));
+            serde_json::Value::Object(row)
+        })
+        .collect();
+    let objectives: Vec<String> = front.objectives.iter().map(|o| o.to_string()).collect();
+    serde_json::json!({
+        "verb": "pareto",
+        "source": c.source.to_string(),
+        "files": files,
+        "runs": runs,
+        "configurations": c.len(),
+        "objectives": objectives,
+        "front": rows,
+        "knee": front.knee.map(|k| c.label(k)),
+    })
 }
 
 fn print_front(front: &Front, runs: usize) {
@@ -252,8 +309,59 @@ fn front_chart(front: &Front) -> Option<ScatterChart> {
 pub fn stats(args: &StatsArgs) -> Result<(), Failure> {
     let table = load(&args.data.dir, &args.data.filters)?;
     let comparison = compare::compare(&table, &args.by, &args.metric).map_err(analysis_failure)?;
-    print_comparison(&comparison);
+    if args.json {
+        outln!("{}", comparison_json(&comparison));
+    } else {
+        print_comparison(&comparison);
+    }
     Ok(())
+}
+
+/// The `--json` report of `mbmf stats`: the groups and the Holm-corrected pairs.
+fn comparison_json(c: &Comparison) -> serde_json::Value {
+    let groups: Vec<serde_json::Value> = c
+        .groups
+        .iter()
+        .map(|g| {
+            serde_json::json!({
+                "value": g.value.to_string(),
+                "n": g.n,
+                "missing": g.missing,
+                "mean": g.mean,
+                "sd": g.sd,
+                "median": g.median,
+            })
+        })
+        .collect();
+    let pairs: Vec<serde_json::Value> = c
+        .pairs
+        .iter()
+        .map(|p| {
+            serde_json::json!({
+                "a": c.groups[p.first].value.to_string(),
+                "b": c.groups[p.second].value.to_string(),
+                "u": p.test.u,
+                "p": p.test.p_value,
+                "p_holm": p.p_holm,
+                "effect": p.test.effect_size,
+                "method": match p.test.method {
+                    crate::analysis::stats::Method::Exact => "exact",
+                    crate::analysis::stats::Method::NormalApprox => "normal",
+                },
+            })
+        })
+        .collect();
+    let empty: Vec<String> = c.empty.iter().map(|v| v.to_string()).collect();
+    serde_json::json!({
+        "verb": "stats",
+        "source": c.source.to_string(),
+        "metric": c.metric,
+        "by": c.by,
+        "groups": groups,
+        "pairs": pairs,
+        "left_out": empty,
+        "also_varying": c.mixed,
+    })
 }
 
 fn print_comparison(c: &Comparison) {
@@ -342,14 +450,53 @@ pub fn min_budget(args: &MinBudgetArgs) -> Result<(), Failure> {
     let table = load(&args.data.dir, &args.data.filters)?;
     let result =
         min_budget::min_budget(&table, &args.metric, args.alpha).map_err(analysis_failure)?;
-    print_min_budget(&result, args.levels);
+    if !args.json {
+        print_min_budget(&result, args.levels);
+    }
     let folder = args
         .out
         .clone()
         .unwrap_or_else(|| dataset::output_folder(&args.data.dir));
     let path = write_table(&result.to_table(), &folder, "min_budget.parquet")?;
-    outln!("wrote {}", path.display());
+    if args.json {
+        outln!("{}", min_budget_json(&result, &path));
+    } else {
+        outln!("wrote {}", path.display());
+    }
     Ok(())
+}
+
+/// The `--json` report of `mbmf min-budget`: one row per group, as in the table.
+fn min_budget_json(r: &MinBudget, path: &Path) -> serde_json::Value {
+    let rows: Vec<serde_json::Value> = r
+        .groups
+        .iter()
+        .enumerate()
+        .map(|(g, group)| {
+            let mut row = serde_json::Map::new();
+            for k in &r.shown {
+                let value = r.key_value(g, k).map(|v| v.to_string());
+                row.insert(k.clone(), serde_json::json!(value));
+            }
+            let chosen = &group.levels[group.chosen];
+            let best = &group.levels[group.best];
+            let budgets: Vec<u64> = group.levels.iter().map(|l| l.budget).collect();
+            row.insert("budgets".to_owned(), serde_json::json!(budgets));
+            row.insert("min_budget".to_owned(), serde_json::json!(chosen.budget));
+            row.insert("mean".to_owned(), serde_json::json!(chosen.mean));
+            row.insert("best_budget".to_owned(), serde_json::json!(best.budget));
+            row.insert("best_mean".to_owned(), serde_json::json!(best.mean));
+            serde_json::Value::Object(row)
+        })
+        .collect();
+    serde_json::json!({
+        "verb": "min-budget",
+        "source": r.source.to_string(),
+        "metric": r.metric,
+        "alpha": r.alpha,
+        "files": [path.display().to_string()],
+        "groups": rows,
+    })
 }
 
 fn print_min_budget(r: &MinBudget, levels: bool) {

@@ -19,6 +19,7 @@ macro_rules! outln {
 pub mod analysis;
 pub mod args;
 pub mod bench;
+pub mod docs;
 pub mod env;
 pub mod plot;
 pub mod progress;
@@ -127,6 +128,14 @@ pub enum Command {
     /// Inspect or export an environment.
     #[command(subcommand)]
     Env(env::EnvCommand),
+    /// Print a shell completion script (bash, zsh, fish, powershell, elvish).
+    ///
+    /// Example: mbmf completions bash > ~/.local/share/bash-completion/completions/mbmf
+    Completions(docs::CompletionsArgs),
+    /// Print the man page, or write one page per verb with --out DIR.
+    ///
+    /// Example: mbmf man --out man/man1
+    Man(docs::ManArgs),
 }
 
 /// Parses the arguments and runs the verb. Help and version requests print and exit 0; argument
@@ -157,5 +166,7 @@ pub fn main_with_args(args: impl IntoIterator<Item = std::ffi::OsString>) -> Res
         Command::Reproduce(args) => reproduce::command(args),
         Command::Bench(args) => bench::command(args),
         Command::Env(cmd) => env::command(cmd),
+        Command::Completions(args) => docs::completions(args),
+        Command::Man(args) => docs::man(args),
     }
 }

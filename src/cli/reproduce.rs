@@ -24,7 +24,7 @@ pub struct ReproduceArgs {
     #[arg(long, default_value_t = 2020)]
     pub seed: u64,
     /// No progress bar.
-    #[arg(long)]
+    #[arg(short, long)]
     pub quiet: bool,
 }
 

@@ -65,8 +65,12 @@ pub struct RunArgs {
     #[arg(long, default_value_t = 4096, value_parser = batch_size, allow_negative_numbers = true)]
     pub batch_size: usize,
     /// No progress bar and no summary table.
-    #[arg(long)]
+    #[arg(short, long)]
     pub quiet: bool,
+    /// Print one JSON object on stdout instead of the table (files written, counts, timing and
+    /// the per-controller rows); progress and notes stay on stderr.
+    #[arg(long)]
+    pub json: bool,
     /// Model parameters.
     #[command(flatten)]
     pub model: ModelArgs,
@@ -200,7 +204,21 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
     .map_err(runtime)?;
     drop(staging);
     let (runs_path, series_path) = (runs_target, series_target);
-    if !args.quiet {
+    if args.json {
+        let report = serde_json::json!({
+            "verb": "run",
+            "task": args.task,
+            "out": args.out.display().to_string(),
+            "files": {
+                "runs": runs_path.display().to_string(),
+                "series": series_path.display().to_string(),
+            },
+            "runs": configs.len(),
+            "seconds": started.elapsed().as_secs_f64(),
+            "controllers": summary.json_rows(),
+        });
+        outln!("{report}");
+    } else if !args.quiet {
         out!(
             "{}",
             summary.table(&args.task, configs.len(), started.elapsed().as_secs_f64())
@@ -310,6 +328,30 @@ impl Summary {
             };
             entry.push((stats.total_reward, stats.cost_total(), share));
         }
+    }
+
+    /// The table's rows as JSON objects: means and sample standard deviations (null where no run
+    /// has a value).
+    fn json_rows(&self) -> Vec<serde_json::Value> {
+        self.rows
+            .iter()
+            .map(|(controller, values)| {
+                let (r, rs) = mean_sd(&values.iter().map(|v| v.0).collect::<Vec<_>>());
+                let (c, cs) = mean_sd(&values.iter().map(|v| v.1).collect::<Vec<_>>());
+                let shares: Vec<f64> = values.iter().filter_map(|v| v.2).collect();
+                let (m, ms) = mean_sd(&shares);
+                serde_json::json!({
+                    "controller": controller.name(),
+                    "runs": values.len(),
+                    "total_reward_mean": r,
+                    "total_reward_sd": rs,
+                    "total_cost_mean": c,
+                    "total_cost_sd": cs,
+                    "mb_share_mean": m,
+                    "mb_share_sd": ms,
+                })
+            })
+            .collect()
     }
 
     /// The table: mean ± standard deviation per controller ("-" where no run has a value).

@@ -51,8 +51,12 @@ pub struct SweepArgs {
     #[arg(long, default_value_t = 256)]
     pub batch_size: usize,
     /// No progress bar and no summary line (for batch jobs); warnings and errors still print.
-    #[arg(long)]
+    #[arg(short, long)]
     pub quiet: bool,
+    /// Print one JSON object on stdout instead of the summary line (dataset folder, shard, run
+    /// counts, parts written, timing); progress and warnings stay on stderr.
+    #[arg(long)]
+    pub json: bool,
 }
 
 impl SweepArgs {
@@ -149,7 +153,22 @@ pub fn command(args: &SweepArgs) -> Result<(), Failure> {
         b.finish_and_clear();
     }
     let report = report?;
-    if !args.quiet {
+    if args.json {
+        let json = serde_json::json!({
+            "verb": "sweep",
+            "file": args.file.display().to_string(),
+            "out": report.out.display().to_string(),
+            "shard": report.shard.to_string(),
+            "runs_total": report.total,
+            "shard_runs": report.shard_runs,
+            "shard_done_before": report.shard_done_before,
+            "done_before": report.done_before,
+            "ran": report.ran,
+            "parts_written": report.parts_written,
+            "seconds": report.seconds,
+        });
+        outln!("{json}");
+    } else if !args.quiet {
         outln!("{}", report.line());
     }
     Ok(())
