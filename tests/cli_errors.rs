@@ -640,3 +640,141 @@ fn a_full_disk_fails_with_code_1_and_leaves_neither_result_file() {
         .collect();
     assert!(left.is_empty(), "left behind: {left:?}");
 }
+
+/// Inputs refused before any work: the output folder of every verb that writes one, the numeric
+/// flags of `reproduce`, sweep files that are not regular files, and exports over their source.
+/// Each would otherwise compute first (or hang, or overwrite the input) and fail late.
+#[test]
+fn outputs_and_special_inputs_are_checked_before_any_work() {
+    let fixtures = Fixtures::new();
+    let dir = fixtures.dir.path();
+    let dataset = dir.join("ds");
+    let output = Command::new(env!("CARGO_BIN_EXE_mbmf"))
+        .args([
+            "run",
+            "--quiet",
+            "--runs",
+            "2",
+            "--steps",
+            "50",
+            "--babbling",
+            "5",
+        ])
+        .arg("--out")
+        .arg(&dataset)
+        .output()
+        .expect("the binary runs");
+    assert_eq!(output.status.code(), Some(0), "{output:?}");
+    std::fs::write(
+        dir.join("s.toml"),
+        "seeds = 1\n[fixed]\nsteps = 20\nbabbling = 5\n[grid]\ncontroller = [\"mf\", \"ec\"]\n",
+    )
+    .expect("write a sweep file");
+    std::fs::write(dir.join("big.toml"), "#".repeat(2 << 20)).expect("write a large file");
+    let fifo = std::process::Command::new("mkfifo")
+        .arg(dir.join("fifo.toml"))
+        .status()
+        .is_ok_and(|s| s.success());
+    let mut cases: Vec<(&str, Vec<&str>)> = vec![
+        (
+            "reproduce --runs 0 --out {dir}/r",
+            vec![
+                "'--runs <RUNS>'",
+                "0 is too small: expected a whole number from 1 to 1000000",
+            ],
+        ),
+        (
+            "reproduce --runs 2000000 --out {dir}/r",
+            vec!["'--runs <RUNS>'", "too large"],
+        ),
+        (
+            "reproduce --seed -1 --out {dir}/r",
+            vec!["'--seed <SEED>'", "-1 is too small"],
+        ),
+        ("min-budget {dir}/ds --alpha -0.1", vec!["--alpha", "-0.1"]),
+        (
+            "sweep {dir}/big.toml --out {dir}/o",
+            vec![
+                "sweep file {dir}/big.toml is 2097152 bytes",
+                "at most 1048576 bytes",
+            ],
+        ),
+        (
+            "sweep /dev/zero --out {dir}/o",
+            vec!["sweep file /dev/zero is a device, pipe or socket"],
+        ),
+        ("sweep {dir} --out {dir}/o", vec!["is a folder"]),
+    ];
+    if fifo {
+        cases.push((
+            "sweep {dir}/fifo.toml --out {dir}/o",
+            vec!["sweep file {dir}/fifo.toml is a device, pipe or socket"],
+        ));
+    }
+    for verb in [
+        "pareto {dir}/ds",
+        "min-budget {dir}/ds",
+        "sweep {dir}/s.toml",
+        "reproduce --quick",
+        "bench",
+    ] {
+        for (out, message) in [
+            (
+                "{dir}/a_file",
+                "--out {dir}/a_file: it is a file, not a folder",
+            ),
+            (
+                "{dir}/a_file/sub",
+                "--out {dir}/a_file/sub: {dir}/a_file is a file",
+            ),
+            (
+                "/dev/null",
+                "--out /dev/null: it is a device, pipe or socket, not a folder",
+            ),
+        ] {
+            let line: &'static str = Box::leak(format!("{verb} --out {out}").into_boxed_str());
+            cases.push((line, vec![message]));
+        }
+    }
+    for (line, parts) in &cases {
+        check(&fixtures, line, 2, parts);
+    }
+    for left in ["r", "o"] {
+        assert!(!dir.join(left).exists(), "a refused command wrote {left}");
+    }
+    assert!(
+        !dataset.join("analysis").exists(),
+        "a refused analysis wrote its folder"
+    );
+}
+
+#[test]
+fn env_export_refuses_to_overwrite_the_files_it_was_loaded_from() {
+    let fixtures = Fixtures::new();
+    let dir = fixtures.dir.path();
+    let export = |task: &str, to: &Path| {
+        Command::new(env!("CARGO_BIN_EXE_mbmf"))
+            .args(["env", "export", task, "--json"])
+            .arg(to)
+            .output()
+            .expect("the binary runs")
+    };
+    let exp = dir.join("exp");
+    assert_eq!(export("tidy1", &exp).status.code(), Some(0));
+    let before = std::fs::read(exp.join("tidy1.json")).expect("the export");
+    // The same folder, spelt differently: canonical paths are compared.
+    let task = format!("json:{}/tidy1.json", exp.display());
+    let output = export(&task, &dir.join("exp/../exp"));
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains("would overwrite") && stderr.contains("which 'json:"),
+        "{stderr}"
+    );
+    assert_eq!(
+        std::fs::read(exp.join("tidy1.json")).expect("still there"),
+        before
+    );
+    // Another folder is fine.
+    assert_eq!(export(&task, &dir.join("copy")).status.code(), Some(0));
+}

@@ -630,10 +630,11 @@ fn an_unwritable_output_folder_fails_before_simulating() {
     };
     let out = readonly.join("dataset");
     let result = run(&["sweep", &file, "--out", out.to_str().unwrap()]);
-    assert_eq!(result.status.code(), Some(1));
+    // An output folder that cannot be written is a usage error, found before the sweep starts.
+    assert_eq!(result.status.code(), Some(2));
     let err = String::from_utf8_lossy(&result.stderr);
     assert!(
-        err.contains(&format!("cannot create output folder {}", out.display())),
+        err.contains(&format!("--out {}: cannot write into", out.display())),
         "{err}"
     );
     assert!(

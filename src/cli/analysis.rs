@@ -86,7 +86,7 @@ pub struct MinBudgetArgs {
     #[arg(long, default_value = "total_reward")]
     pub metric: String,
     /// Significance level of the one-sided tests (SPEC 9: 0.05).
-    #[arg(long, default_value_t = DEFAULT_ALPHA)]
+    #[arg(long, default_value_t = DEFAULT_ALPHA, value_parser = super::args::number, allow_hyphen_values = true)]
     pub alpha: f64,
     /// Folder for min_budget.parquet (default: analysis/ in the dataset's folder).
     #[arg(long)]
@@ -130,15 +130,16 @@ fn analysis_failure(e: AnalysisError) -> Failure {
 
 /// Runs `mbmf pareto`.
 pub fn pareto(args: &ParetoArgs) -> Result<(), Failure> {
+    let folder = args
+        .out
+        .clone()
+        .unwrap_or_else(|| dataset::output_folder(&args.data.dir));
+    super::args::check_out_dir(&folder, "--out")?;
     let table = load(&args.data.dir, &args.data.filters)?;
     let front = Front::compute(&table, &args.objectives).map_err(analysis_failure)?;
     if !args.json {
         print_front(&front, table.len());
     }
-    let folder = args
-        .out
-        .clone()
-        .unwrap_or_else(|| dataset::output_folder(&args.data.dir));
     let path = write_table(&front.to_table(), &folder, "pareto.parquet")?;
     let mut written = vec![path];
     if !args.no_plot {
@@ -447,16 +448,17 @@ fn print_comparison(c: &Comparison) {
 
 /// Runs `mbmf min-budget`.
 pub fn min_budget(args: &MinBudgetArgs) -> Result<(), Failure> {
+    let folder = args
+        .out
+        .clone()
+        .unwrap_or_else(|| dataset::output_folder(&args.data.dir));
+    super::args::check_out_dir(&folder, "--out")?;
     let table = load(&args.data.dir, &args.data.filters)?;
     let result =
         min_budget::min_budget(&table, &args.metric, args.alpha).map_err(analysis_failure)?;
     if !args.json {
         print_min_budget(&result, args.levels);
     }
-    let folder = args
-        .out
-        .clone()
-        .unwrap_or_else(|| dataset::output_folder(&args.data.dir));
     let path = write_table(&result.to_table(), &folder, "min_budget.parquet")?;
     if args.json {
         outln!("{}", min_budget_json(&result, &path));

@@ -154,6 +154,49 @@ pub fn threads_count(text: &str) -> Result<usize, String> {
     whole(text, 1, MAX_THREADS).map(|n| n as usize)
 }
 
+/// Checks, before any work, that `path` can be an output folder: its nearest existing ancestor
+/// (the folder itself included) is a folder that can be written into. A file, a device such as
+/// `/dev/null` or a read-only folder is a usage error naming `flag`, so no verb computes for
+/// minutes and then fails on its first write.
+pub fn check_out_dir(path: &Path, flag: &str) -> Result<(), super::Failure> {
+    let refuse = |why: String| super::usage(anyhow!("{flag} {}: {why}", path.display()));
+    let Some(existing) = path
+        .ancestors()
+        .map(|a| {
+            if a.as_os_str().is_empty() {
+                Path::new(".")
+            } else {
+                a
+            }
+        })
+        .find(|a| std::fs::metadata(a).is_ok())
+    else {
+        return Err(refuse("no part of this path exists".into()));
+    };
+    let metadata = std::fs::metadata(existing).map_err(|e| refuse(e.to_string()))?;
+    if !metadata.is_dir() {
+        let what = if metadata.is_file() {
+            "a file"
+        } else {
+            "a device, pipe or socket"
+        };
+        let whose = if existing == path {
+            "it is".to_string()
+        } else {
+            format!("{} is", existing.display())
+        };
+        return Err(refuse(format!(
+            "{whose} {what}, not a folder; give a folder to write into"
+        )));
+    }
+    // Creating (and at once removing) a file is the only reliable test of write access.
+    tempfile::Builder::new()
+        .prefix(".mbmf-write-check")
+        .tempfile_in(existing)
+        .map_err(|e| refuse(format!("cannot write into {}: {e}", existing.display())))?;
+    Ok(())
+}
+
 impl ModelArgs {
     /// Applies the flags that were given to `p`.
     pub fn apply(&self, p: &mut Params) {

@@ -33,6 +33,7 @@ pub struct BenchArgs {
 
 /// Runs `mbmf bench`.
 pub fn command(args: &BenchArgs) -> Result<(), Failure> {
+    super::args::check_out_dir(&args.out, "--out")?;
     if args.growth && !(100..=env::grid::MAX_STATES).contains(&args.growth_max) {
         return Err(usage(anyhow!(
             "--growth-max must be between 100 and {} states, not {}",

@@ -54,6 +54,7 @@ pub fn command(cmd: &EnvCommand) -> Result<(), Failure> {
             }
             let spec = load_task(task, files.key_states.as_deref(), files.spaces.as_deref())
                 .map_err(usage)?;
+            refuse_overwriting_sources(task, files, &spec, json)?;
             let paths = crate::env::json::export(&spec, json).map_err(runtime)?;
             outln!(
                 "wrote {}, {} and {}",
@@ -64,6 +65,45 @@ pub fn command(cmd: &EnvCommand) -> Result<(), Failure> {
             Ok(())
         }
     }
+}
+
+/// Refuses an export that would replace the files its task was loaded from: the export is
+/// written file by file, so a failure half-way (or a model that does not round-trip exactly)
+/// would lose the original. Paths are compared canonically, so `./x` and `x` are one file.
+fn refuse_overwriting_sources(
+    task: &str,
+    files: &TaskFiles,
+    spec: &Spec,
+    dir: &std::path::Path,
+) -> Result<(), Failure> {
+    let Some(model) = task.strip_prefix("json:") else {
+        return Ok(());
+    };
+    let mut sources = crate::env::JsonPaths::beside(model);
+    if let Some(k) = &files.key_states {
+        sources.key_states = k.clone();
+    }
+    if let Some(s) = &files.spaces {
+        sources.spaces = s.clone();
+    }
+    let targets = crate::env::json::export_paths(spec, dir);
+    let sources = [sources.model, sources.key_states, sources.spaces];
+    for target in [targets.model, targets.key_states, targets.spaces] {
+        let Ok(target_real) = std::fs::canonicalize(&target) else {
+            continue;
+        };
+        if let Some(source) = sources
+            .iter()
+            .find(|s| std::fs::canonicalize(s).is_ok_and(|s| s == target_real))
+        {
+            return Err(usage(anyhow!(
+                "--json {}: exporting there would overwrite {}, which '{task}' was loaded                  from; choose another folder",
+                dir.display(),
+                source.display()
+            )));
+        }
+    }
+    Ok(())
 }
 
 /// Initial states shown by `mbmf env info` before "...".

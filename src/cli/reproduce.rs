@@ -4,6 +4,7 @@ use std::path::PathBuf;
 
 use clap::Args;
 
+use super::args::{check_out_dir, runs_count, seed};
 use super::{Failure, progress, runtime};
 use crate::reproduce::{Options, reproduce};
 
@@ -17,11 +18,11 @@ pub struct ReproduceArgs {
     /// only); its numbers are for checking the pipeline, not for conclusions.
     #[arg(long)]
     pub quick: bool,
-    /// Runs per condition (default 50, or 6 with --quick).
-    #[arg(long)]
+    /// Runs per condition, 1 to 1000000 (default 50, or 6 with --quick).
+    #[arg(long, value_parser = runs_count, allow_negative_numbers = true)]
     pub runs: Option<u32>,
-    /// Master seed.
-    #[arg(long, default_value_t = 2020)]
+    /// Master seed, 0 to 2^64 - 1.
+    #[arg(long, default_value_t = 2020, value_parser = seed, allow_negative_numbers = true)]
     pub seed: u64,
     /// No progress bar.
     #[arg(short, long)]
@@ -30,6 +31,7 @@ pub struct ReproduceArgs {
 
 /// Runs `mbmf reproduce`.
 pub fn command(args: &ReproduceArgs) -> Result<(), Failure> {
+    check_out_dir(&args.out, "--out")?;
     let options = Options {
         out: args.out.clone(),
         quick: args.quick,

@@ -84,6 +84,9 @@ impl SweepArgs {
 
 /// Runs `mbmf sweep`.
 pub fn command(args: &SweepArgs) -> Result<(), Failure> {
+    if !args.dry_run {
+        super::args::check_out_dir(&args.out_dir(), "--out")?;
+    }
     let sweep = Sweep::load(&args.file).map_err(usage)?;
     let shard = args.shard().map_err(usage)?;
     if args.batch_size == 0 {

@@ -980,15 +980,20 @@ pub fn export(spec: &Spec, dir: &Path) -> Result<JsonPaths, EnvFileError> {
         path: dir.to_path_buf(),
         error,
     })?;
-    let paths = JsonPaths {
-        model: dir.join(format!("{}.json", export_stem(&spec.name))),
-        key_states: dir.join("keyStates.txt"),
-        spaces: dir.join("spaces.txt"),
-    };
+    let paths = export_paths(spec, dir);
     write_atomic(&paths.model, &model)?;
     write_atomic(&paths.key_states, &key_states_text(spec))?;
     write_atomic(&paths.spaces, &spaces_text(spec))?;
     Ok(paths)
+}
+
+/// The three files [`export`] writes for `spec` into `dir`.
+pub fn export_paths(spec: &Spec, dir: &Path) -> JsonPaths {
+    JsonPaths {
+        model: dir.join(format!("{}.json", export_stem(&spec.name))),
+        key_states: dir.join("keyStates.txt"),
+        spaces: dir.join("spaces.txt"),
+    }
 }
 
 /// Checks that `spec` is consistent and would pass [`load`]'s validation, so that [`export`]

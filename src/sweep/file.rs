@@ -24,6 +24,8 @@ pub const TOP_LEVEL: &[&str] = &["seeds", "master_seed", "fixed", "grid", "zip",
 const RANGE_KEYS: &[&str] = &["from", "to", "steps", "by", "log"];
 /// More values than this on one axis is surely a mistake (and would not fit in memory).
 const MAX_AXIS_VALUES: u64 = 1_000_000;
+/// Largest sweep file read: a sweep is a few lines of TOML, so anything larger is a wrong path.
+pub const MAX_SWEEP_FILE_BYTES: u64 = 1 << 20;
 
 /// A sweep file that cannot be read or is not valid.
 #[derive(Debug, thiserror::Error)]
@@ -36,6 +38,14 @@ pub enum SweepError {
         file: String,
         /// The cause.
         cause: std::io::Error,
+    },
+    /// The path is not a regular file of at most [`MAX_SWEEP_FILE_BYTES`].
+    #[error("sweep file {file} {found}: expected a TOML file of at most {max} bytes", max = MAX_SWEEP_FILE_BYTES)]
+    NotASweepFile {
+        /// The file.
+        file: String,
+        /// What it is instead ("is a folder", "is 3000000 bytes", ...).
+        found: String,
     },
     /// A problem at a place in the file.
     #[error("{file}:{line}: {message}")]
@@ -924,6 +934,23 @@ impl Sweep {
     /// Reads and parses the sweep file at `path`.
     pub fn load(path: &Path) -> Result<Sweep, SweepError> {
         let file = path.display().to_string();
+        // Checked before reading, so a pipe cannot block and `/dev/zero` cannot fill memory.
+        let metadata = std::fs::metadata(path).map_err(|cause| SweepError::Read {
+            file: file.clone(),
+            cause,
+        })?;
+        let found = if metadata.is_dir() {
+            Some("is a folder".to_string())
+        } else if !metadata.is_file() {
+            Some("is a device, pipe or socket".to_string())
+        } else if metadata.len() > MAX_SWEEP_FILE_BYTES {
+            Some(format!("is {} bytes", metadata.len()))
+        } else {
+            None
+        };
+        if let Some(found) = found {
+            return Err(SweepError::NotASweepFile { file, found });
+        }
         let text = std::fs::read_to_string(path).map_err(|cause| SweepError::Read {
             file: file.clone(),
             cause,
