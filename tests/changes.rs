@@ -1,34 +1,22 @@
 //! Changes during a run (SPEC 10) end to end: `mbmf run --change ...` on tidy1 and on the
 //! authors' navigation world, the columns it reports, and the refusal of bad schedules.
 
+mod common;
+
 use std::path::Path;
-use std::process::Command;
 
 use arrow::array::{Array, Float64Array, StringArray};
 use arrow::datatypes::DataType;
 use arrow::record_batch::RecordBatch;
 use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
 
-const NAV_DIR: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/data/navworld");
+use common::{run as mbmf, run_quiet};
 
-/// The navigation world's folder, or `None` with a note (a failure under CI=true).
-fn nav_dir() -> Option<&'static str> {
-    if Path::new(NAV_DIR).join("realisticNavWorld.json").exists() {
-        return Some(NAV_DIR);
-    }
-    assert!(
-        std::env::var("CI").as_deref() != Ok("true"),
-        "{NAV_DIR} is absent under CI=true"
-    );
-    eprintln!("skipped: {NAV_DIR} is absent (the authors' data is not in the repository)");
-    None
-}
-
-fn mbmf(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_mbmf"))
-        .args(args)
-        .output()
-        .expect("mbmf runs")
+/// The navigation world's folder, or `None` as [`common::navworld_task`] says.
+fn nav_dir() -> Option<String> {
+    common::navworld_task()?;
+    let model = Path::new(common::NAVWORLD);
+    Some(model.parent()?.to_str()?.to_owned())
 }
 
 fn read_runs(dir: &Path) -> RecordBatch {
@@ -62,21 +50,19 @@ fn strings(batch: &RecordBatch, name: &str) -> Vec<String> {
 fn a_box_assignment_change_on_tidy1_is_reported_with_reward_before_after_and_recovery() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("boxes");
-    let output = mbmf(&[
-        "run",
-        "--controller",
-        "mf,mb",
-        "--runs",
-        "2",
-        "--steps",
-        "3000",
-        "--change",
-        "1500:boxes=brg",
-        "--quiet",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
-    assert!(output.status.success(), "{output:?}");
+    run_quiet(
+        &out,
+        &[
+            "--controller",
+            "mf,mb",
+            "--runs",
+            "2",
+            "--steps",
+            "3000",
+            "--change",
+            "1500:boxes=brg",
+        ],
+    );
     let runs = read_runs(&out);
     assert_eq!(runs.num_rows(), 4);
     for text in strings(&runs, "schedule") {
@@ -96,19 +82,10 @@ fn a_box_assignment_change_on_tidy1_is_reported_with_reward_before_after_and_rec
     }
     // Without changes the columns are empty.
     let plain = dir.path().join("plain");
-    let output = mbmf(&[
-        "run",
-        "--controller",
-        "mf",
-        "--runs",
-        "1",
-        "--steps",
-        "200",
-        "--quiet",
-        "--out",
-        plain.to_str().unwrap(),
-    ]);
-    assert!(output.status.success(), "{output:?}");
+    run_quiet(
+        &plain,
+        &["--controller", "mf", "--runs", "1", "--steps", "200"],
+    );
     let runs = read_runs(&plain);
     assert_eq!(strings(&runs, "schedule"), [""]);
     assert_eq!(numbers(&runs, "first_change_step"), [None]);
@@ -152,25 +129,23 @@ fn the_authors_goal_change_on_the_navigation_world_runs_and_reports_recovery() {
     let out = dir.path().join("nav");
     let world = format!("json:{nav}/realisticNavWorld.json");
     let new_goal = format!("1601:world=json:{nav}/realisticNavWorld_newGoal.json");
-    let output = mbmf(&[
-        "run",
-        "--task",
-        &world,
-        "--controller",
-        "mf,mb,ec",
-        "--runs",
-        "3",
-        "--change",
-        "1601:goal=34",
-        "--change",
-        &new_goal,
-        "--steps",
-        "3200",
-        "--quiet",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
-    assert!(output.status.success(), "{output:?}");
+    run_quiet(
+        &out,
+        &[
+            "--task",
+            &world,
+            "--controller",
+            "mf,mb,ec",
+            "--runs",
+            "3",
+            "--change",
+            "1601:goal=34",
+            "--change",
+            &new_goal,
+            "--steps",
+            "3200",
+        ],
+    );
     let runs = read_runs(&out);
     assert_eq!(runs.num_rows(), 9);
     let recovery = numbers(&runs, "recovery_steps");

@@ -1,5 +1,6 @@
 //! The command-line conventions scripts rely on, through the built binary: shell completions, the
-//! man page, `-q`, and `--json` summaries that parse and agree with the files written.
+//! man page, `-q`, `--json` summaries that parse and agree with the files written, results on
+//! stdout and diagnostics on stderr for every verb, and text tables without trailing spaces.
 
 use assert_cmd::Command;
 use tempfile::TempDir;
@@ -45,18 +46,160 @@ fn man_page_on_stdout_and_one_page_per_verb() {
     assert!(run.contains("batch\\-size"), "the run page lacks its flags");
 }
 
+/// Runs mbmf, asserts success, and returns its stdout and stderr.
+fn split(args: &[&str]) -> (String, String) {
+    let output = mbmf().args(args).output().expect("mbmf runs");
+    let stderr = String::from_utf8(output.stderr).expect("UTF-8 diagnostics");
+    assert!(output.status.success(), "mbmf {args:?} failed: {stderr}");
+    (
+        String::from_utf8(output.stdout).expect("UTF-8 output"),
+        stderr,
+    )
+}
+
+/// Runs mbmf, asserts success and an empty stderr (no bar off a terminal, no note), checks
+/// that no line of stdout ends with white space, and returns stdout.
+fn result_only(args: &[&str]) -> String {
+    let (stdout, stderr) = split(args);
+    assert!(stderr.is_empty(), "mbmf {args:?} wrote to stderr: {stderr}");
+    assert!(!stdout.is_empty(), "mbmf {args:?} printed no result");
+    assert_no_trailing_spaces(&format!("mbmf {args:?}"), &stdout);
+    stdout
+}
+
+fn assert_no_trailing_spaces(what: &str, text: &str) {
+    for (i, line) in text.lines().enumerate() {
+        assert!(
+            !line.ends_with([' ', '\t']),
+            "{what}: line {} ends with white space: {line:?}",
+            i + 1
+        );
+    }
+}
+
 #[test]
-fn short_quiet_is_quiet() {
+fn short_quiet_hides_diagnostics_but_not_the_result() {
     let dir = TempDir::new().expect("a temporary folder");
     let out = dir.path().join("run");
+    let out = out.to_str().expect("UTF-8 path");
+    let quiet = result_only(&["run", "--runs", "2", "--steps", "200", "-q", "--out", out]);
+    assert!(quiet.contains("controller"), "-q hid the table: {quiet}");
+    assert!(
+        quiet.contains(&format!(
+            "wrote {out}/runs.parquet and {out}/series.parquet"
+        )),
+        "{quiet}"
+    );
+    // The same run without -q prints the same result, apart from the timing.
+    let loud = result_only(&[
+        "run", "--runs", "2", "--steps", "200", "--force", "--out", out,
+    ]);
+    let untimed = |s: &str| s.lines().skip(1).map(str::to_owned).collect::<Vec<_>>();
+    assert_eq!(untimed(&quiet), untimed(&loud));
+}
+
+#[test]
+fn run_and_its_analyses_print_results_on_stdout_only() {
+    let dir = TempDir::new().expect("a temporary folder");
+    let data = dir.path().join("run");
+    let data = data.to_str().expect("UTF-8 path");
+    let run = result_only(&["run", "--runs", "3", "--steps", "300", "--out", data]);
+    let lines: Vec<&str> = run.lines().collect();
+    assert!(lines[0].starts_with("tidy1: 12 runs in "), "{run}");
+    assert!(lines[1].starts_with("controller"), "{run}");
+    assert_eq!(lines.len(), 7, "title, header, 4 controllers, files: {run}");
+    assert!(lines[6].starts_with("wrote "), "{run}");
+
+    let stats = result_only(&["stats", data, "--by", "controller"]);
+    assert!(stats.contains("p_holm"), "{stats}");
+    let pareto = result_only(&["pareto", data]);
+    assert!(
+        pareto.contains("<- knee") && pareto.contains("wrote "),
+        "{pareto}"
+    );
+    let plot = result_only(&["plot", data, "--by", "controller"]);
+    assert!(plot.contains("controller=ec: 3 runs"), "{plot}");
+
+    // A note goes to stderr, in either output mode; stdout keeps the result alone.
+    let one = ["pareto", data, "--objectives", "total_reward:max", "--out"];
+    let figures = dir.path().join("one");
+    let figures = figures.to_str().expect("UTF-8 path");
+    let (stdout, stderr) = split(&[&one[..], &[figures]].concat());
+    assert!(stderr.starts_with("note: no figure"), "{stderr}");
+    assert!(
+        !stdout.contains("figure") && stdout.contains("wrote "),
+        "{stdout}"
+    );
+    assert_no_trailing_spaces("pareto, one objective", &stdout);
+    let (stdout, stderr) = split(&[&one[..], &[figures, "--json"]].concat());
+    assert!(stderr.starts_with("note: no figure"), "{stderr}");
+    let report: serde_json::Value = serde_json::from_str(&stdout).expect("one JSON object");
+    assert_eq!(report["verb"], "pareto");
+
+    // A refusal: nothing on stdout, the error on stderr.
     let output = mbmf()
-        .args(["run", "--runs", "2", "--steps", "200", "-q", "--out"])
-        .arg(&out)
+        .args(["run", "--runs", "1", "--steps", "10", "--out", data])
         .output()
         .expect("mbmf runs");
-    assert!(output.status.success());
-    assert!(output.stdout.is_empty(), "-q still printed the table");
-    assert!(out.join("runs.parquet").is_file());
+    assert_eq!(output.status.code(), Some(2));
+    assert!(output.stdout.is_empty(), "a refusal printed a result");
+    assert!(String::from_utf8_lossy(&output.stderr).contains("--force"));
+}
+
+#[test]
+fn sweep_compact_and_min_budget_print_results_on_stdout_only() {
+    let dir = TempDir::new().expect("a temporary folder");
+    let file = dir.path().join("budget.toml");
+    std::fs::write(&file, BUDGET_SWEEP).expect("write the sweep");
+    let file = file.to_str().expect("UTF-8 path");
+    let data = dir.path().join("budget");
+    let data = data.to_str().expect("UTF-8 path");
+
+    let plan = result_only(&["sweep", file, "--dry-run"]);
+    assert!(
+        plan.contains("2 configurations x 3 seeds = 6 runs"),
+        "{plan}"
+    );
+    let line = result_only(&["sweep", file, "--out", data]);
+    assert_eq!(line.lines().count(), 1, "{line}");
+    // Resuming a finished dataset: the note on stderr (not under -q), the line on stdout.
+    let (stdout, stderr) = split(&["sweep", file, "--out", data, "--resume"]);
+    assert!(stderr.starts_with("resuming "), "{stderr}");
+    assert_eq!(stdout.lines().count(), 1, "{stdout}");
+    let quiet = result_only(&["sweep", file, "--out", data, "--resume", "-q"]);
+    assert_eq!(quiet.lines().count(), 1, "{quiet}");
+
+    let min = result_only(&["min-budget", data, "--levels"]);
+    assert!(
+        min.contains("min budget") && min.contains("qualifies"),
+        "{min}"
+    );
+    let compact = result_only(&["compact", data]);
+    assert!(compact.contains("6 runs"), "{compact}");
+    result_only(&["min-budget", data, "--levels"]);
+}
+
+#[test]
+fn reproduce_and_env_print_results_on_stdout_only() {
+    let dir = TempDir::new().expect("a temporary folder");
+    let out = dir.path().join("repro");
+    let out = out.to_str().expect("UTF-8 path");
+    let report = result_only(&["reproduce", "--quick", "--runs", "2", "--out", out]);
+    assert!(
+        report.contains("| task |") && report.contains("report: "),
+        "{report}"
+    );
+    let info = result_only(&["env", "info", "tidy1"]);
+    assert!(info.contains("states    112"), "{info}");
+    let export = dir.path().join("export");
+    let export = result_only(&[
+        "env",
+        "export",
+        "tidy1",
+        "--json",
+        export.to_str().expect("UTF-8"),
+    ]);
+    assert!(export.starts_with("wrote "), "{export}");
 }
 
 #[test]
@@ -144,6 +287,11 @@ checkpoint = 100
 controller = ["mf", "ec"]
 "#;
 
+/// Takeover budgets 0 and 10 for EC, 3 seeds: 6 runs, the smallest input of `min-budget`.
+const BUDGET_SWEEP: &str = "seeds = 3\nmaster_seed = 5\n[fixed]\ntask = \"tidy1\"\nsteps = 300\n\
+                            babbling = 100\ncontroller = \"ec\"\ninteraction = \"takeover\"\n\
+                            [grid]\nbudget = [0, 10]\n";
+
 #[test]
 fn sweep_json_counts_the_runs() {
     let dir = TempDir::new().expect("a temporary folder");
@@ -206,12 +354,7 @@ fn analysis_verbs_print_json() {
     assert!(std::path::Path::new(file).is_file());
 
     let sweep = dir.path().join("budget.toml");
-    std::fs::write(
-        &sweep,
-        "seeds = 3\nmaster_seed = 5\n[fixed]\ntask = \"tidy1\"\nsteps = 300\nbabbling = 100\n\
-         controller = \"ec\"\ninteraction = \"takeover\"\n[grid]\nbudget = [0, 10]\n",
-    )
-    .expect("write the sweep");
+    std::fs::write(&sweep, BUDGET_SWEEP).expect("write the sweep");
     let budget = dir.path().join("budget");
     let budget = budget.to_str().expect("UTF-8 path");
     stdout_of(&[

@@ -1,37 +1,30 @@
 //! `mbmf plot` end to end: curves of a real run with a change, the files it writes and where,
 //! and the refusal of a bad metric or filter.
 
-use std::process::Command;
+mod common;
 
-fn mbmf(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_mbmf"))
-        .args(args)
-        .output()
-        .expect("mbmf runs")
-}
+use common::{run as mbmf, run_quiet};
 
 #[test]
 fn plot_draws_one_curve_per_group_with_the_change_marked_beside_the_data() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("run");
     let out_s = out.to_str().unwrap();
-    let output = mbmf(&[
-        "run",
-        "--controller",
-        "mf,mb",
-        "--runs",
-        "2",
-        "--steps",
-        "400",
-        "--checkpoint",
-        "100",
-        "--change",
-        "200:boxes=brg",
-        "--quiet",
-        "--out",
-        out_s,
-    ]);
-    assert!(output.status.success(), "{output:?}");
+    run_quiet(
+        &out,
+        &[
+            "--controller",
+            "mf,mb",
+            "--runs",
+            "2",
+            "--steps",
+            "400",
+            "--checkpoint",
+            "100",
+            "--change",
+            "200:boxes=brg",
+        ],
+    );
 
     let output = mbmf(&["plot", out_s, "--by", "controller", "--metric", "cum_cost"]);
     assert!(output.status.success(), "{output:?}");
@@ -87,19 +80,10 @@ fn a_bad_metric_column_or_filter_exits_2_naming_it() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("run");
     let out_s = out.to_str().unwrap();
-    let output = mbmf(&[
-        "run",
-        "--controller",
-        "mf",
-        "--runs",
-        "1",
-        "--steps",
-        "100",
-        "--quiet",
-        "--out",
-        out_s,
-    ]);
-    assert!(output.status.success(), "{output:?}");
+    run_quiet(
+        &out,
+        &["--controller", "mf", "--runs", "1", "--steps", "100"],
+    );
     for (args, needle) in [
         (vec!["--by", "controller", "--metric", "reward"], "'reward'"),
         (vec!["--by", "controler"], "controller"),

@@ -146,8 +146,7 @@ pub fn pareto(args: &ParetoArgs) -> Result<(), Failure> {
         match front_chart(&front) {
             Some(chart) => written
                 .extend(plot::scatter_chart(&chart, &folder.join("pareto")).map_err(runtime)?),
-            None if args.json => eprintln!("no figure: it needs two objectives with finite means"),
-            None => outln!("no figure: it needs two objectives with finite means"),
+            None => eprintln!("note: no figure: it needs two objectives with finite means"),
         }
     }
     let shown: Vec<String> = written.iter().map(|p| p.display().to_string()).collect();
@@ -439,8 +438,8 @@ fn print_comparison(c: &Comparison) {
     }
     if !c.mixed.is_empty() {
         outln!(
-            "note: within groups these parameters also vary: {}; add --where COLUMN=VALUE to \
-             compare like with like",
+            "within groups these parameters also vary: {}; add --where COLUMN=VALUE to compare \
+             like with like",
             c.mixed.join(", ")
         );
     }

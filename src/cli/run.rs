@@ -64,7 +64,8 @@ pub struct RunArgs {
     /// not depend on it.
     #[arg(long, default_value_t = 4096, value_parser = batch_size, allow_negative_numbers = true)]
     pub batch_size: usize,
-    /// No progress bar and no summary table.
+    /// No progress bar and no notes on stderr; the table and the files written still print on
+    /// stdout, and warnings and errors on stderr.
     #[arg(short, long)]
     pub quiet: bool,
     /// Print one JSON object on stdout instead of the table (files written, counts, timing and
@@ -218,12 +219,12 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
             "controllers": summary.json_rows(),
         });
         outln!("{report}");
-    } else if !args.quiet {
+    } else {
         out!(
             "{}",
             summary.table(&args.task, configs.len(), started.elapsed().as_secs_f64())
         );
-        eprintln!(
+        outln!(
             "wrote {} and {}",
             runs_path.display(),
             series_path.display()
@@ -372,7 +373,7 @@ impl Summary {
                 format!("{:>18}", "-")
             } else {
                 let (m, ms) = mean_sd(&shares);
-                format!("{m:>8.3} ± {ms:<6.3}")
+                format!("{m:>8.3} ± {ms:.3}")
             };
             let _ = writeln!(
                 out,

@@ -50,7 +50,8 @@ pub struct SweepArgs {
     /// on it.
     #[arg(long, default_value_t = 256)]
     pub batch_size: usize,
-    /// No progress bar and no summary line (for batch jobs); warnings and errors still print.
+    /// No progress bar and no notes on stderr (for batch jobs); the summary line still prints
+    /// on stdout, and warnings and errors on stderr.
     #[arg(short, long)]
     pub quiet: bool,
     /// Print one JSON object on stdout instead of the summary line (dataset folder, shard, run
@@ -171,7 +172,7 @@ pub fn command(args: &SweepArgs) -> Result<(), Failure> {
             "seconds": report.seconds,
         });
         outln!("{json}");
-    } else if !args.quiet {
+    } else {
         outln!("{}", report.line());
     }
     Ok(())

@@ -43,6 +43,14 @@ pub fn run_ok(args: &[&str]) -> Output {
     out
 }
 
+/// Runs `mbmf run ARGS --quiet --out OUT` and panics with its stderr unless it succeeds.
+pub fn run_quiet(out: &Path, args: &[&str]) -> Output {
+    let mut all = vec!["run"];
+    all.extend_from_slice(args);
+    all.extend(["--quiet", "--out", out.to_str().expect("a UTF-8 path")]);
+    run_ok(&all)
+}
+
 /// The repository root.
 pub fn repo() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
