@@ -378,3 +378,41 @@ fn analysis_verbs_print_json() {
     assert_eq!(groups[0]["budgets"], serde_json::json!([0, 10]));
     assert!(std::path::Path::new(min["files"][0].as_str().expect("file")).is_file());
 }
+
+/// The README's first example is the default run on a fresh clone: what it shows must be what
+/// the binary prints there, line for line, apart from the wall time in the first line.
+#[test]
+fn the_readme_shows_what_the_default_run_prints() {
+    let readme = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/README.md"))
+        .expect("README.md");
+    let prompt = "$ cargo run --release -- run\n";
+    let start = readme.find(prompt).expect("the first example") + prompt.len();
+    let shown = &readme[start..start + readme[start..].find("```").expect("its end")];
+    let dir = TempDir::new().expect("a temporary folder");
+    let output = mbmf()
+        .arg("run")
+        .current_dir(dir.path())
+        .output()
+        .expect("mbmf runs");
+    assert!(output.status.success(), "{output:?}");
+    let printed = String::from_utf8(output.stdout).expect("UTF-8 output");
+    let untimed = |s: &str| {
+        let mut lines: Vec<String> = s.lines().map(str::to_owned).collect();
+        let (title, _) = lines[0].split_once(" in ").expect("'N runs in T s'");
+        lines[0] = title.to_owned();
+        lines
+    };
+    assert_eq!(
+        untimed(shown),
+        untimed(&printed),
+        "README:\n{shown}\nprinted:\n{printed}"
+    );
+    // Running it again is refused, as the README says, and --force replaces the results.
+    let again = mbmf()
+        .arg("run")
+        .current_dir(dir.path())
+        .output()
+        .expect("mbmf runs");
+    assert_eq!(again.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&again.stderr).contains("--force"));
+}
