@@ -30,6 +30,10 @@ pub fn bar(total_agent_steps: u64, quiet: bool, message: bool) -> ProgressBar {
             .progress_chars("=> ");
         bar.set_style(style);
     }
+    if message {
+        // Until the caller's first message, so the line never starts with a bare comma.
+        bar.set_message("0 runs");
+    }
     bar
 }
 

@@ -24,7 +24,7 @@ pub struct ReproduceArgs {
     /// Master seed, 0 to 2^64 - 1.
     #[arg(long, default_value_t = 2020, value_parser = seed, allow_negative_numbers = true)]
     pub seed: u64,
-    /// No progress bar.
+    /// No progress bar; the table and the summary line still print on stdout.
     #[arg(short, long)]
     pub quiet: bool,
 }
