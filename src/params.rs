@@ -2,9 +2,12 @@
 //! state in [`crate::batch::Batch`]; this small `Copy` record is all that may differ between runs
 //! of one batch.
 
+pub mod registry;
+
 use thiserror::Error;
 
 use crate::env::tidy::Boxes;
+pub use registry::{Kind, Param, ParamValue, Value, param};
 
 /// A parameter value outside what the model accepts.
 #[derive(Debug, Error, PartialEq)]
@@ -17,8 +20,8 @@ pub enum ConfigError {
         name: &'static str,
         /// The bad value, as [`crate::params::show`] writes it.
         value: String,
-        /// What would be accepted.
-        accepted: &'static str,
+        /// What would be accepted, with the default.
+        accepted: String,
     },
     /// Values the simulation would compute could exceed the range of a float (SPEC 3.3: no
     /// overflow), so the combination is refused before anything runs.
@@ -56,14 +59,31 @@ pub enum ConfigError {
     TooManySchedules,
 }
 
-/// `name()` of each parameter enum: the value's name on the command line, in sweep files and in
-/// outputs (what clap's `ValueEnum` derive also accepts).
+/// `name()` of each parameter enum, the value's name on the command line, in sweep files and in
+/// outputs (what clap's `ValueEnum` derive also accepts), and its [`ParamValue`] impl.
 macro_rules! names {
-    ($($ty:ident { $($variant:ident => $name:literal),* $(,)? })*) => { $(
+    ($($ty:ident $(($kind:expr))? { $($variant:ident => $name:literal),* $(,)? })*) => { $(
         impl $ty {
             /// The name used on the command line and in outputs.
             pub fn name(self) -> &'static str {
                 match self { $($ty::$variant => $name),* }
+            }
+        }
+
+        impl ParamValue for $ty {
+            const KIND: Kind = registry::first!($($kind)?, Kind::Choice(&[$($name),*]));
+            fn to_value(self) -> Value {
+                Value::Choice(self.name())
+            }
+            fn from_value(value: &Value) -> Option<Self> {
+                match value {
+                    $(Value::Choice($name) => Some($ty::$variant),)*
+                    _ => None,
+                }
+            }
+            fn possible_values() -> Vec<clap::builder::PossibleValue> {
+                use clap::ValueEnum;
+                Self::value_variants().iter().filter_map(Self::to_possible_value).collect()
             }
         }
     )* };
@@ -82,7 +102,7 @@ names! {
     }
     RewardSource { Environment => "environment", Human => "human" }
     CongratulationEffect { Bias => "bias", Reward => "reward" }
-    Profile {
+    Profile (Kind::Profile) {
         None => "none",
         PaperCongratulation => "paper-congratulation",
         PaperTakeover => "paper-takeover",
@@ -217,30 +237,6 @@ pub enum Profile {
     Custom,
 }
 
-/// Scalars of the simulated human (SPEC 5).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct HumanParams {
-    /// Interaction type. Default `none`.
-    pub interaction: Interaction,
-    /// Interactions the human gives in a run before stopping. Default 0.
-    pub budget: u32,
-    /// Probability that the human is inattentive at an opportunity. Default 0.1 (paper).
-    pub forget_prob: f64,
-    /// Weight of the congratulation (or punishment) bonus in the softmax. Default 0.1 (paper).
-    pub zeta: f64,
-}
-
-impl Default for HumanParams {
-    fn default() -> Self {
-        HumanParams {
-            interaction: Interaction::None,
-            budget: 0,
-            forget_prob: 0.1,
-            zeta: 0.1,
-        }
-    }
-}
-
 impl Profile {
     /// All profiles with a fixed meaning (not `custom`).
     pub const PRESETS: [Profile; 8] = [
@@ -325,81 +321,81 @@ pub fn paper_budget(controller: Controller, interaction: Interaction) -> u32 {
     }
 }
 
-/// Every sweepable scalar of one run. `Default` gives the paper's values (SPEC 3, 4, 7).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Params {
-    /// Meta-controller. Default `ec`.
-    pub controller: Controller,
-    /// Softmax (paper) or argmax (authors' code) expert selection. Default softmax.
-    pub selection: Selection,
-    /// Inference cost measure. Default `ops` (deterministic).
-    pub cost_model: CostModel,
-    /// MF learning rate (Eq. 4). Default 0.6.
-    pub alpha_mf: f64,
-    /// MF discount. Default 0.9.
-    pub gamma_mf: f64,
-    /// MB discount. Default 0.95.
-    pub gamma_mb: f64,
-    /// Softmax temperature of MF, MB and the MC. Default 0.02 (inverse temperature 50).
-    pub tau: f64,
-    /// Initial action values of both experts. Default 0 (paper; the authors' code uses 1).
-    pub q_init: f64,
-    /// MB transition window: outcomes kept per state-action pair (Eq. 1). Default 10.
-    pub window_n: u32,
-    /// Value iteration stops when the summed |dQ| of a sweep is below this. Default 0.01.
-    pub vi_epsilon: f64,
-    /// Safety cap on value-iteration sweeps per inference; calls that hit it are counted in the
-    /// output (`vi_capped`). Default 10,000, far above what convergent settings need.
-    pub vi_max_sweeps: u32,
-    /// Weight of the new value in every moving average. Default 0.6.
-    pub filter_alpha: f64,
-    /// kappa = exp(-kappa_coeff * H_MF in bits) (Eq. 7). Default 9. The main sweep parameter.
-    pub kappa_coeff: f64,
-    /// Divide entropies by log2(|A|) so they lie in [0, 1] (authors' code). Default true.
-    pub normalise_entropy: bool,
-    /// The simulated human.
-    pub human: HumanParams,
-    /// The preset the human came from (recorded in outputs).
-    pub profile: Profile,
-    /// Experiment steps after babbling. Default 10,000 (task 1; task 2 uses 20,000).
-    pub steps: u32,
-    /// Babbling steps before the experiment: reward withheld, no human. Default 1,000.
-    pub babbling: u32,
-    /// A checkpoint row is written every this many steps (and at the last step). Default 100.
-    pub checkpoint: u32,
-    /// Who brings the goal's reward (SPEC 11.1). Default `environment`.
-    pub reward_source: RewardSource,
-    /// How a congratulation acts (SPEC 11.3). Default `bias` (Eq. 8).
-    pub congratulation_effect: CongratulationEffect,
-    /// `tidy1`'s box assignment for the whole run (SPEC 10). Default `rgb`.
-    pub boxes: Boxes,
+// The parameter registry (see `registry`): adding a parameter is adding a row here. The order
+// is the order of the output columns, of `mbmf run --help` and of sweep-key listings.
+#[rustfmt::skip]
+registry::registry! {
+    special controller: Controller = Controller::Ec, "meta-controller: mf, mb, rnd, ec or entropy";
+    flag selection: Selection = Selection::Softmax, "how the MC picks an expert: softmax or argmax";
+    flag cost_model: CostModel = CostModel::Ops, "inference cost model: ops or wallclock",
+        help ". Wallclock is not reproducible by nature";
+    flag interaction in human: Interaction = Interaction::None,
+        "human interaction: none, congratulation, takeover, punishment or nuisance";
+    special profile: Profile = Profile::None, "human profile name";
+    flag budget in human: u32 = 0, "interactions the human may give" ("interactions"),
+        help ". A profile sets it for the controller";
+    flag forget_prob as forget in human: f64 = 0.1,
+        "probability the human misses an opportunity" ("probability"),
+        accepts "a probability in [0, 1]" if |x| (0.0..=1.0).contains(&x);
+    flag zeta in human: f64 = 0.1, "human's error or reward scale zeta",
+        accepts "a bonus weight from 0 to 1e12" if |x| (0.0..=MAGNITUDE_MAX).contains(&x),
+        help ". A congratulation adds it to the softmax, a punishment subtracts it";
+    flag alpha_mf: f64 = 0.6, "MF learning rate",
+        accepts "a learning rate in (0, 1]" if |x| x > 0.0 && x <= 1.0;
+    flag gamma_mf: f64 = 0.9, "MF discount factor",
+        accepts "a discount in [0, 1)" if |x| (0.0..1.0).contains(&x);
+    flag gamma_mb: f64 = 0.95, "MB discount factor",
+        accepts "a discount in [0, 1)" if |x| (0.0..1.0).contains(&x);
+    flag tau: f64 = 0.02, "MC softmax temperature",
+        accepts "a temperature > 0, at least 1e-300" if |x| x >= TAU_MIN,
+        help ". MF and MB use it too";
+    flag q_init: f64 = 0.0, "initial Q value" ("reward"),
+        accepts "a number from -1e12 to 1e12" if |x| x.abs() <= MAGNITUDE_MAX,
+        help " (paper; the authors' code uses 1)";
+    flag window_n: u32 = 10, "MB model window length" ("transitions"),
+        accepts "a window of 1 to 65535 executions" if |n| (1..=u32::from(u16::MAX)).contains(&n);
+    flag vi_epsilon: f64 = 0.01, "value-iteration convergence threshold" ("reward"),
+        accepts "a tolerance > 0" if |x| x > 0.0,
+        help ". Value iteration stops when a sweep's summed |dQ| is below it";
+    flag vi_max_sweeps: u32 = 10_000, "value-iteration sweep cap" ("sweeps"),
+        accepts "at least 1 sweep per inference" if |n| n >= 1,
+        help ". A call that reaches it stops unconverged and is counted in the vi_capped column";
+    flag filter_alpha: f64 = 0.6, "averaging filter rate of the expert distributions",
+        accepts "a weight in (0, 1]" if |x| x > 0.0 && x <= 1.0,
+        help ": the weight of the new value in every moving average";
+    flag kappa_coeff ["kappa"]: f64 = 9.0, "kappa = exp(-kappa_coeff * H_MF in bits) (Eq. 7)" ("1/bit"),
+        accepts "a number >= 0" if |x| x >= 0.0;
+    flag normalise_entropy ["normalize_entropy"]: bool = true,
+        "entropies divided by log2(actions) in the MC values", help " (authors' code)";
+    flag steps: u32 = 10_000, "experiment steps after babbling" ("steps"),
+        help " (20000 for tidy2). 0 runs the babbling only: one row per run with zero reward \
+              and cost, and no series rows";
+    flag babbling: u32 = 1_000, "babbling steps before the experiment" ("steps"),
+        help ". Reward is withheld and the human absent";
+    flag checkpoint: u32 = 100, "series row every K experiment steps" ("steps"),
+        help ". The last step has a row too; 0 writes no series rows";
+    after_profile reward_source: RewardSource = RewardSource::Environment,
+        "who brings the goal's reward: environment or human (SPEC 11.1)";
+    flag congratulation_effect: CongratulationEffect = CongratulationEffect::Bias,
+        "how a congratulation acts: bias (Eq. 8) or reward shaping (SPEC 11.3)";
+    flag boxes: Boxes = Boxes::RGB,
+        "tidy1 box assignment at the start: position i gives cube i's box (rgb by default)";
 }
 
-impl Default for Params {
-    fn default() -> Self {
-        Params {
-            controller: Controller::Ec,
-            selection: Selection::Softmax,
-            cost_model: CostModel::Ops,
-            alpha_mf: 0.6,
-            gamma_mf: 0.9,
-            gamma_mb: 0.95,
-            tau: 0.02,
-            q_init: 0.0,
-            window_n: 10,
-            vi_epsilon: 0.01,
-            vi_max_sweeps: 10_000,
-            filter_alpha: 0.6,
-            kappa_coeff: 9.0,
-            normalise_entropy: true,
-            human: HumanParams::default(),
-            profile: Profile::None,
-            steps: 10_000,
-            babbling: 1_000,
-            checkpoint: 100,
-            reward_source: RewardSource::Environment,
-            congratulation_effect: CongratulationEffect::Bias,
-            boxes: Boxes::RGB,
+/// tidy1's box assignments as sweep files and flags name them: permutations of `rgb`, position
+/// i the box of cube i.
+const BOX_NAMES: &[&str] = &["rgb", "rbg", "grb", "gbr", "brg", "bgr"];
+
+impl ParamValue for Boxes {
+    const KIND: Kind = Kind::Choice(BOX_NAMES);
+    fn to_value(self) -> Value {
+        let name = self.to_string();
+        Value::Choice(BOX_NAMES.iter().find(|n| **n == name).unwrap_or(&"rgb"))
+    }
+    fn from_value(value: &Value) -> Option<Self> {
+        match value {
+            Value::Choice(name) => Boxes::parse(name).ok(),
+            _ => None,
         }
     }
 }
@@ -424,10 +420,7 @@ pub const MAGNITUDE_MAX: f64 = 1e12;
 
 /// The command-line flag of a parameter named as in [`ConfigError::InvalidParam`].
 pub fn cli_flag(name: &str) -> String {
-    match name {
-        "forget_prob" => "--forget".to_string(),
-        _ => format!("--{}", name.replace('_', "-")),
-    }
+    param(name).map_or_else(|| format!("--{}", name.replace('_', "-")), Param::flag)
 }
 
 /// A number as error messages write it: plain for ordinary magnitudes, with an exponent for
@@ -456,60 +449,6 @@ fn approx(x: f64) -> String {
 }
 
 impl Params {
-    /// Checks every scalar against its accepted range. Errors name the parameter as its field
-    /// (and output column); [`cli_flag`] gives the flag. NaN and infinities are always refused.
-    pub fn validate(&self) -> Result<(), ConfigError> {
-        fn check(
-            name: &'static str,
-            value: f64,
-            ok: bool,
-            accepted: &'static str,
-        ) -> Result<(), ConfigError> {
-            if ok && value.is_finite() {
-                Ok(())
-            } else {
-                Err(ConfigError::InvalidParam {
-                    name,
-                    value: show(value),
-                    accepted,
-                })
-            }
-        }
-        let unit_open = |x: f64| x > 0.0 && x <= 1.0;
-        let (h, zeta) = (&self.human, self.human.zeta);
-        #[rustfmt::skip]
-        let reals = [
-            ("alpha_mf", self.alpha_mf, unit_open(self.alpha_mf), "a learning rate in (0, 1] (default 0.6)"),
-            ("gamma_mf", self.gamma_mf, (0.0..1.0).contains(&self.gamma_mf), "a discount in [0, 1) (default 0.9)"),
-            ("gamma_mb", self.gamma_mb, (0.0..1.0).contains(&self.gamma_mb), "a discount in [0, 1) (default 0.95)"),
-            ("tau", self.tau, self.tau >= TAU_MIN, "a temperature > 0, at least 1e-300 (default 0.02)"),
-            ("q_init", self.q_init, self.q_init.abs() <= MAGNITUDE_MAX, "a number from -1e12 to 1e12 (default 0)"),
-            ("vi_epsilon", self.vi_epsilon, self.vi_epsilon > 0.0, "a tolerance > 0 (default 0.01)"),
-            ("filter_alpha", self.filter_alpha, unit_open(self.filter_alpha), "a weight in (0, 1] (default 0.6)"),
-            ("kappa_coeff", self.kappa_coeff, self.kappa_coeff >= 0.0, "a number >= 0 (default 9)"),
-            ("forget_prob", h.forget_prob, (0.0..=1.0).contains(&h.forget_prob), "a probability in [0, 1] (default 0.1)"),
-            ("zeta", zeta, (0.0..=MAGNITUDE_MAX).contains(&zeta), "a bonus weight from 0 to 1e12 (default 0.1; punishment subtracts it)"),
-        ];
-        for (name, value, ok, accepted) in reals {
-            check(name, value, ok, accepted)?;
-        }
-        if self.window_n == 0 || self.window_n > u32::from(u16::MAX) {
-            return Err(ConfigError::InvalidParam {
-                name: "window_n",
-                value: self.window_n.to_string(),
-                accepted: "a window of 1 to 65535 executions (default 10)",
-            });
-        }
-        if self.vi_max_sweeps == 0 {
-            return Err(ConfigError::InvalidParam {
-                name: "vi_max_sweeps",
-                value: "0".into(),
-                accepted: "at least 1 sweep per inference (default 10000)",
-            });
-        }
-        Ok(())
-    }
-
     /// Checks every scalar, and that the parameters make sense for the environment `spec`: values
     /// stay finite with its reward, and no interactions where the task does not define them
     /// (SPEC 5).

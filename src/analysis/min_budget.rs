@@ -22,8 +22,6 @@ use crate::analysis::AnalysisError;
 use crate::analysis::dataset::{Column, Table, Value, configuration_columns};
 use crate::analysis::stats::{self, Alternative};
 
-/// Columns that configure the human: part of a group's key, but irrelevant for budget-0 runs.
-const HUMAN_KEY: [&str; 3] = ["interaction", "forget_prob", "zeta"];
 /// Columns left out of a group's key: the budget is what varies; the profile only names a
 /// preset whose values are in the other columns (and differs between budgets of one preset).
 const NOT_KEY: [&str; 2] = ["budget", "profile"];
@@ -128,9 +126,10 @@ pub fn min_budget(table: &Table, metric: &str, alpha: f64) -> Result<MinBudget, 
         .iter()
         .map(|k| table.column(k))
         .collect::<Result<_, _>>()?;
+    // The human's fields are part of a group's key, but irrelevant for budget-0 runs.
     let is_human: Vec<bool> = keys
         .iter()
-        .map(|k| HUMAN_KEY.contains(&k.as_str()))
+        .map(|k| crate::params::param(k).is_some_and(|p| p.in_human))
         .collect();
     let base_of = |key: &[Value]| -> Vec<Value> {
         key.iter()

@@ -4,13 +4,11 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{Result, anyhow};
-use clap::{Args, ValueEnum};
+use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
+use clap::{Arg, ArgAction, Args};
 
 use crate::env::{self, Spec};
-use crate::params::{
-    ConfigError, Controller, CostModel, HumanParams, Interaction, Params, Profile, Selection,
-    cli_flag,
-};
+use crate::params::{ConfigError, Kind, PARAMS, Param, Params, Value, cli_flag};
 
 /// Where a `json:` task's keyStates.txt and spaces.txt are, when not beside the model file.
 #[derive(Debug, Clone, Args, Default)]
@@ -23,78 +21,99 @@ pub struct TaskFiles {
     pub spaces: Option<PathBuf>,
 }
 
-/// On/off switch for flags that take a value.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum Switch {
-    /// Enabled.
-    On,
-    /// Disabled.
-    Off,
+/// Every parameter of the registry with a flag (all but the controller list and the profile,
+/// which `mbmf run` declares itself), as the flags given: unset flags keep the default. Built
+/// from [`PARAMS`] at run time, so a row there is a flag here.
+#[derive(Debug, Clone, Default)]
+pub struct ParamArgs {
+    /// The parameters set on the command line, in the registry's order.
+    pub given: Vec<(&'static Param, Value)>,
 }
 
-/// Every parameter of SPEC 3–4 as a flag; unset flags keep the SPEC default.
-#[derive(Debug, Clone, Args, Default)]
-pub struct ModelArgs {
-    /// MF learning rate (Eq. 4), in (0, 1]. Default 0.6.
-    #[arg(long, value_parser = number, allow_hyphen_values = true)]
-    pub alpha_mf: Option<f64>,
-    /// MF discount, in [0, 1). Default 0.9.
-    #[arg(long, value_parser = number, allow_hyphen_values = true)]
-    pub gamma_mf: Option<f64>,
-    /// MB discount, in [0, 1). Default 0.95.
-    #[arg(long, value_parser = number, allow_hyphen_values = true)]
-    pub gamma_mb: Option<f64>,
-    /// Softmax temperature of MF, MB and the MC, > 0 (at least 1e-300). Default 0.02.
-    #[arg(long, value_parser = number, allow_hyphen_values = true)]
-    pub tau: Option<f64>,
-    /// Initial action values, from -1e12 to 1e12. Default 0 (paper).
-    #[arg(long, value_parser = number, allow_hyphen_values = true)]
-    pub q_init: Option<f64>,
-    /// MB transition window N, 1 to 65535. Default 10.
-    #[arg(long, value_parser = count, allow_negative_numbers = true)]
-    pub window_n: Option<u32>,
-    /// Value iteration stops when a sweep's summed |dQ| is below this, > 0. Default 0.01.
-    #[arg(long, value_parser = number, allow_hyphen_values = true)]
-    pub vi_epsilon: Option<f64>,
-    /// Cap on value-iteration sweeps per inference, >= 1. A call that reaches it stops unconverged
-    /// and is counted in the vi_capped column. Default 10000.
-    #[arg(long, value_parser = count, allow_negative_numbers = true)]
-    pub vi_max_sweeps: Option<u32>,
-    /// Weight of the new value in the moving averages, in (0, 1]. Default 0.6.
-    #[arg(long, value_parser = number, allow_hyphen_values = true)]
-    pub filter_alpha: Option<f64>,
-    /// kappa = exp(-kappa_coeff * H_MF in bits) (Eq. 7), >= 0. Default 9.
-    #[arg(long, value_parser = number, allow_hyphen_values = true)]
-    pub kappa_coeff: Option<f64>,
-    /// Normalise entropies by log2(|A|). Default on.
-    #[arg(long, value_enum)]
-    pub normalise_entropy: Option<Switch>,
-    /// How the MC selects an expert. Default softmax (paper).
-    #[arg(long, value_enum)]
-    pub selection: Option<Selection>,
-    /// How inference cost is measured. Default ops (deterministic).
-    #[arg(long, value_enum)]
-    pub cost_model: Option<CostModel>,
+impl ParamArgs {
+    /// The parameters with a flag.
+    fn flags() -> impl Iterator<Item = &'static Param> {
+        PARAMS.iter().filter(|p| p.flag)
+    }
+
+    /// Applies the flags that were given to `p`.
+    pub fn apply(&self, p: &mut Params) {
+        for (param, value) in &self.given {
+            (param.set)(p, value);
+        }
+    }
 }
 
-/// The simulated human's flags (SPEC 5).
-#[derive(Debug, Clone, Args, Default)]
-pub struct HumanArgs {
-    /// A named human; the flags below override its fields.
-    #[arg(long, value_enum)]
-    pub profile: Option<Profile>,
-    /// Interaction type. Default none.
-    #[arg(long, value_enum)]
-    pub interaction: Option<Interaction>,
-    /// Interactions the human gives per run before stopping.
-    #[arg(long, value_parser = count, allow_negative_numbers = true)]
-    pub budget: Option<u32>,
-    /// Bonus weight of a congratulation (or penalty of a punishment), 0 to 1e12. Default 0.1.
-    #[arg(long, value_parser = number, allow_hyphen_values = true)]
-    pub zeta: Option<f64>,
-    /// Probability that the human is inattentive at an opportunity, in [0, 1]. Default 0.1.
-    #[arg(long, value_parser = number, allow_hyphen_values = true)]
-    pub forget: Option<f64>,
+impl clap::FromArgMatches for ParamArgs {
+    fn from_arg_matches(matches: &clap::ArgMatches) -> Result<Self, clap::Error> {
+        let given = ParamArgs::flags()
+            .filter_map(|p| Some((p, matches.get_one::<Value>(p.key)?.clone())))
+            .collect();
+        Ok(ParamArgs { given })
+    }
+
+    fn update_from_arg_matches(&mut self, matches: &clap::ArgMatches) -> Result<(), clap::Error> {
+        *self = Self::from_arg_matches(matches)?;
+        Ok(())
+    }
+}
+
+impl clap::Args for ParamArgs {
+    fn augment_args(cmd: clap::Command) -> clap::Command {
+        ParamArgs::flags().fold(cmd, |cmd, p| cmd.arg(flag(p)))
+    }
+
+    fn augment_args_for_update(cmd: clap::Command) -> clap::Command {
+        Self::augment_args(cmd)
+    }
+}
+
+/// The flag of `param`: its help says what it is, what it accepts and its default; numbers are
+/// parsed here and range-checked by [`Params::validate`], so flags and sweep files share one set
+/// of rules.
+fn flag(param: &'static Param) -> Arg {
+    let mut doc = param.doc.to_string();
+    if let Some(first) = doc.get_mut(..1) {
+        first.make_ascii_uppercase();
+    }
+    let accepted = param.accepted.map(|a| format!(": {a}")).unwrap_or_default();
+    let default = match param.default_value() {
+        Value::Switch(b) => if b { "on" } else { "off" }.to_string(),
+        other => other.to_string(),
+    };
+    let arg = Arg::new(param.key)
+        .long(param.key.replace('_', "-"))
+        .value_name(param.key.to_uppercase())
+        .action(ArgAction::Set)
+        .help(format!("{doc}{accepted}. Default {default}{}", param.help));
+    match param.kind {
+        Kind::Real => arg
+            .allow_hyphen_values(true)
+            .value_parser(|s: &str| number(s).map(Value::Real)),
+        Kind::Count => arg
+            .allow_negative_numbers(true)
+            .value_parser(|s: &str| count(s).map(Value::Count)),
+        Kind::Switch => arg.value_parser(
+            PossibleValuesParser::new([
+                PossibleValue::new("on").help("Enabled"),
+                PossibleValue::new("off").help("Disabled"),
+            ])
+            .map(|s| Value::Switch(s == "on")),
+        ),
+        Kind::Choice(names) => {
+            let mut values = (param.possible_values)();
+            if values.is_empty() {
+                values = names.iter().map(|n| PossibleValue::new(*n)).collect();
+            }
+            // Case is ignored, as in sweep files.
+            let parser = PossibleValuesParser::new(values).map(move |s: String| {
+                let name = names.iter().find(|n| n.eq_ignore_ascii_case(&s));
+                Value::Choice(name.copied().unwrap_or_default())
+            });
+            arg.ignore_case(true).value_parser(parser)
+        }
+        Kind::Task | Kind::Profile | Kind::Schedule => arg,
+    }
 }
 
 /// Most runs per controller of one `mbmf run` (every configuration is held in memory).
@@ -195,68 +214,6 @@ pub fn check_out_dir(path: &Path, flag: &str) -> Result<(), super::Failure> {
         .tempfile_in(existing)
         .map_err(|e| refuse(format!("cannot write into {}: {e}", existing.display())))?;
     Ok(())
-}
-
-impl ModelArgs {
-    /// Applies the flags that were given to `p`.
-    pub fn apply(&self, p: &mut Params) {
-        macro_rules! set {
-            ($($field:ident),*) => { $( if let Some(v) = self.$field { p.$field = v; } )* };
-        }
-        set!(
-            alpha_mf,
-            gamma_mf,
-            gamma_mb,
-            tau,
-            q_init,
-            window_n,
-            vi_epsilon,
-            vi_max_sweeps
-        );
-        set!(filter_alpha, kappa_coeff);
-        if let Some(s) = self.normalise_entropy {
-            p.normalise_entropy = s == Switch::On;
-        }
-        if let Some(s) = self.selection {
-            p.selection = s;
-        }
-        if let Some(c) = self.cost_model {
-            p.cost_model = c;
-        }
-    }
-}
-
-impl HumanArgs {
-    /// The human for `controller`: the profile's preset (or no interaction), then the flags.
-    pub fn resolve(&self, controller: Controller) -> (HumanParams, Profile) {
-        let (mut human, profile) = match self.profile {
-            Some(p) => (p.human(controller).unwrap_or_default(), p),
-            None => (HumanParams::default(), Profile::None),
-        };
-        let mut custom = false;
-        if let Some(i) = self.interaction {
-            human.interaction = i;
-            custom = true;
-        }
-        if let Some(b) = self.budget {
-            human.budget = b;
-            custom = true;
-        }
-        if let Some(z) = self.zeta {
-            human.zeta = z;
-            custom = true;
-        }
-        if let Some(f) = self.forget {
-            human.forget_prob = f;
-            custom = true;
-        }
-        let profile = if custom && self.profile.is_none() {
-            Profile::Custom
-        } else {
-            profile
-        };
-        (human, profile)
-    }
 }
 
 /// Loads the environment named by `task`, with explicit keyStates / spaces paths if given.

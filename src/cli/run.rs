@@ -7,14 +7,11 @@ use std::sync::Arc;
 use anyhow::{Context, Result, anyhow};
 use clap::Args;
 
-use super::args::{HumanArgs, ModelArgs, batch_size, count, explain, load_task, runs_count, seed};
+use super::args::{ParamArgs, batch_size, explain, load_task, runs_count, seed};
 use super::{Failure, progress, runtime, usage};
 use crate::batch::{Batch, RunConfig};
-use crate::env::tidy::Boxes;
 use crate::output;
-use crate::params::{
-    CongratulationEffect, Controller, Params, Profile, RewardSource, default_steps,
-};
+use crate::params::{Controller, Params, Profile, default_steps};
 use crate::pipeline;
 use crate::schedule::{self, Schedule};
 
@@ -44,16 +41,6 @@ pub struct RunArgs {
     /// Master seed; with the run index it fixes each run's random stream.
     #[arg(long, default_value_t = 1, value_parser = seed, allow_negative_numbers = true)]
     pub seed: u64,
-    /// Experiment steps after babbling (default: 10,000 for tidy1 and json, 20,000 for tidy2).
-    /// 0 runs the babbling only: one row per run with zero reward and cost, and no series rows.
-    #[arg(long, value_parser = count, allow_negative_numbers = true)]
-    pub steps: Option<u32>,
-    /// Babbling steps before the experiment (reward withheld, no human).
-    #[arg(long, default_value_t = 1000, value_parser = count, allow_negative_numbers = true)]
-    pub babbling: u32,
-    /// Write a series row every K experiment steps (and at the last); 0 writes no series rows.
-    #[arg(long, default_value_t = 100, value_parser = count, allow_negative_numbers = true)]
-    pub checkpoint: u32,
     /// Output folder for runs.parquet and series.parquet (created if needed).
     #[arg(long, default_value = "out/run")]
     pub out: PathBuf,
@@ -72,28 +59,19 @@ pub struct RunArgs {
     /// the per-controller rows); progress and notes stay on stderr.
     #[arg(long)]
     pub json: bool,
-    /// Model parameters.
+    /// A named human; the human's flags (--interaction, --budget, --zeta, --forget,
+    /// --reward-source) override its fields.
+    #[arg(long, value_enum)]
+    pub profile: Option<Profile>,
+    /// Every other parameter.
     #[command(flatten)]
-    pub model: ModelArgs,
-    /// The simulated human.
-    #[command(flatten)]
-    pub human: HumanArgs,
+    pub params: ParamArgs,
     /// A change during the run at experiment step STEP (repeatable; events at one step apply in
     /// the order given): world=json:PATH, goal=S[:R], delete=S-T,..., boxes=PERM (tidy1),
     /// interaction=, budget= (left), forget=, zeta=, profile=, reward_source=.
     /// Example: --change 1601:goal=34 --change 1601:world=json:PATH
     #[arg(long = "change", value_name = "STEP:KEY=VALUE")]
     pub change: Vec<String>,
-    /// tidy1's box assignment for the whole run, a permutation of rgb (position i: the box of
-    /// cube i). Default rgb.
-    #[arg(long, value_parser = Boxes::parse)]
-    pub boxes: Option<Boxes>,
-    /// Who brings the goal's reward. Default environment.
-    #[arg(long, value_enum)]
-    pub reward_source: Option<RewardSource>,
-    /// How a congratulation acts: bias (Eq. 8) or reward (shaping). Default bias.
-    #[arg(long, value_enum)]
-    pub congratulation_effect: Option<CongratulationEffect>,
 }
 
 /// Builds the configurations of `mbmf run`: for each controller, `runs` runs with consecutive
@@ -101,28 +79,19 @@ pub struct RunArgs {
 pub fn run_configs(args: &RunArgs) -> Result<Vec<RunConfig>> {
     let mut configs = Vec::new();
     for (ci, &controller) in args.controller.iter().enumerate() {
-        let (human, profile) = args.human.resolve(controller);
+        let profile = args.profile.unwrap_or(Profile::None);
         let mut params = Params {
             controller,
-            human,
+            human: profile.human(controller).unwrap_or_default(),
             profile,
-            steps: args.steps.unwrap_or_else(|| default_steps(&args.task)),
-            babbling: args.babbling,
-            checkpoint: args.checkpoint,
+            reward_source: profile.reward_source().unwrap_or_default(),
+            steps: default_steps(&args.task),
             ..Params::default()
         };
-        args.model.apply(&mut params);
-        if let Some(source) = args.human.profile.and_then(Profile::reward_source) {
-            params.reward_source = source;
-        }
-        if let Some(source) = args.reward_source {
-            params.reward_source = source;
-        }
-        if let Some(effect) = args.congratulation_effect {
-            params.congratulation_effect = effect;
-        }
-        if let Some(b) = args.boxes {
-            params.boxes = b;
+        args.params.apply(&mut params);
+        // Setting the human's fields without a profile describes a custom human.
+        if args.profile.is_none() && args.params.given.iter().any(|(p, _)| p.in_human) {
+            params.profile = Profile::Custom;
         }
         params.validate().map_err(explain)?;
         for r in 0..args.runs {

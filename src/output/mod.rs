@@ -27,6 +27,7 @@ use parquet::file::metadata::KeyValue;
 use parquet::file::properties::WriterProperties;
 
 use crate::batch::{Batch, RunConfig};
+use crate::params::{Kind, PARAMS, Value};
 
 /// Failure to write results.
 #[derive(Debug, thiserror::Error)]
@@ -130,7 +131,8 @@ fn signed<T: Into<u64>>(v: T) -> i64 {
     i64::try_from(v.into()).unwrap_or(i64::MAX)
 }
 
-/// The parameter columns shared by both tables: identity, then every parameter (SPEC 3–7).
+/// The parameter columns shared by both tables: identity, the task, then every parameter of the
+/// registry in its order (SPEC 3–7).
 pub fn param_columns<'a, I>(cols: &mut Columns, task: &str, configs: I)
 where
     I: Iterator<Item = &'a RunConfig> + Clone,
@@ -141,44 +143,18 @@ where
     // --seed (any u64) is written as given.
     cols.u64("master_seed", c.clone().map(|r| r.seed));
     cols.str("task", c.clone().map(|_| task));
-    cols.str("controller", c.clone().map(|r| r.params.controller.name()));
-    cols.str("selection", c.clone().map(|r| r.params.selection.name()));
-    cols.str("cost_model", c.clone().map(|r| r.params.cost_model.name()));
-    cols.str(
-        "interaction",
-        c.clone().map(|r| r.params.human.interaction.name()),
-    );
-    cols.str("profile", c.clone().map(|r| r.params.profile.name()));
-    cols.int("budget", c.clone().map(|r| r.params.human.budget));
-    cols.f64("forget_prob", c.clone().map(|r| r.params.human.forget_prob));
-    cols.f64("zeta", c.clone().map(|r| r.params.human.zeta));
-    cols.f64("alpha_mf", c.clone().map(|r| r.params.alpha_mf));
-    cols.f64("gamma_mf", c.clone().map(|r| r.params.gamma_mf));
-    cols.f64("gamma_mb", c.clone().map(|r| r.params.gamma_mb));
-    cols.f64("tau", c.clone().map(|r| r.params.tau));
-    cols.f64("q_init", c.clone().map(|r| r.params.q_init));
-    cols.int("window_n", c.clone().map(|r| r.params.window_n));
-    cols.f64("vi_epsilon", c.clone().map(|r| r.params.vi_epsilon));
-    cols.int("vi_max_sweeps", c.clone().map(|r| r.params.vi_max_sweeps));
-    cols.f64("filter_alpha", c.clone().map(|r| r.params.filter_alpha));
-    cols.f64("kappa_coeff", c.clone().map(|r| r.params.kappa_coeff));
-    cols.bool(
-        "normalise_entropy",
-        c.clone().map(|r| r.params.normalise_entropy),
-    );
-    cols.int("steps", c.clone().map(|r| r.params.steps));
-    cols.int("babbling", c.clone().map(|r| r.params.babbling));
-    cols.int("checkpoint", c.clone().map(|r| r.params.checkpoint));
-    cols.str(
-        "reward_source",
-        c.clone().map(|r| r.params.reward_source.name()),
-    );
-    cols.str(
-        "congratulation_effect",
-        c.clone().map(|r| r.params.congratulation_effect.name()),
-    );
-    let boxes: Vec<String> = c.map(|r| r.params.boxes.to_string()).collect();
-    cols.str("boxes", boxes.iter().map(String::as_str));
+    for p in PARAMS {
+        let values = c.clone().map(|r| (p.get)(&r.params));
+        match p.kind {
+            Kind::Real => cols.f64(p.name, values.map(|v| v.as_f64().unwrap_or(f64::NAN))),
+            Kind::Count => cols.int(p.name, values.map(|v| v.as_count().unwrap_or(0))),
+            Kind::Switch => cols.bool(p.name, values.map(|v| v == Value::Switch(true))),
+            _ => {
+                let names: Vec<Value> = values.collect();
+                cols.str(p.name, names.iter().map(|v| v.as_str().unwrap_or("")));
+            }
+        }
+    }
 }
 
 fn ratio(num: f64, den: u64) -> Option<f64> {

@@ -12,7 +12,7 @@ use std::sync::Arc;
 use toml::Spanned;
 use toml::de::{DeTable, DeValue};
 
-use super::keys::{self, KEYS, Key, Kind, N_KEYS, Value};
+use super::keys::{self, Key, Kind, N_KEYS, Value};
 use crate::env::{self, Spec};
 use crate::params::ConfigError;
 use crate::params::{Params, Profile, default_steps};
@@ -161,7 +161,7 @@ impl Src<'_> {
 }
 
 fn known_keys() -> String {
-    KEYS.iter().map(|k| k.name).collect::<Vec<_>>().join(", ")
+    Key::all().map(Key::name).collect::<Vec<_>>().join(", ")
 }
 
 fn suggestion(word: &str, candidates: &[&str]) -> String {
@@ -253,7 +253,7 @@ impl Parser<'_> {
         section: &str,
     ) -> Result<Key, SweepError> {
         Key::lookup(name.get_ref()).ok_or_else(|| {
-            let names: Vec<&str> = KEYS.iter().map(|k| k.name).collect();
+            let names: Vec<&str> = Key::all().map(Key::name).collect();
             self.src.err(
                 &name.span(),
                 name.get_ref(),
@@ -412,7 +412,7 @@ impl Parser<'_> {
             let mut values = Vec::new();
             for (key_name, value) in entries(t) {
                 let key = self.key(key_name, &section)?;
-                if key == Key::Profile {
+                if key == Key::PROFILE {
                     return Err(self.src.err(
                         &key_name.span(),
                         "profile",
@@ -527,7 +527,7 @@ impl Parser<'_> {
         section: &str,
     ) -> Result<Value, SweepError> {
         let span = v.span();
-        let kind = key.info().kind;
+        let kind = key.kind();
         let bad = |p: &Self, what: String| {
             p.src.err(
                 &span,
@@ -680,7 +680,7 @@ impl Parser<'_> {
         section: &str,
     ) -> Result<Vec<Value>, SweepError> {
         let name = key.name();
-        let kind = key.info().kind;
+        let kind = key.kind();
         let err = |p: &Self, sp: &Range<usize>, what: String| {
             p.src
                 .err(sp, name, format!("key '{name}' in {section}: {what}"))
@@ -1114,7 +1114,7 @@ impl Sweep {
     fn explicit(&self, config: u64) -> [Option<&Value>; N_KEYS] {
         let mut set: [Option<&Value>; N_KEYS] = [None; N_KEYS];
         for (k, v) in &self.fixed {
-            set[*k as usize] = Some(v);
+            set[k.index()] = Some(v);
         }
         let mut rem = config;
         for axis in self.axes.iter().rev() {
@@ -1122,7 +1122,7 @@ impl Sweep {
             let digit = (rem % n) as usize;
             rem /= n;
             for (k, v) in axis.keys.iter().zip(&axis.values[digit]) {
-                set[*k as usize] = Some(v);
+                set[k.index()] = Some(v);
             }
         }
         set
@@ -1138,7 +1138,7 @@ impl Sweep {
         let mut eff = set;
         let mut builtin = None;
         let mut profile = PROFILE_NONE;
-        if let Some(Value::Text(name)) = set[Key::Profile as usize] {
+        if let Some(Value::Text(name)) = set[Key::PROFILE.index()] {
             profile = self
                 .profile_names
                 .iter()
@@ -1146,15 +1146,15 @@ impl Sweep {
                 .unwrap_or(PROFILE_CUSTOM);
             if let Some(user) = self.profiles.iter().find(|u| &u.name == name) {
                 for (k, v) in &user.values {
-                    if set[*k as usize].is_none() {
-                        eff[*k as usize] = Some(v);
+                    if set[k.index()].is_none() {
+                        eff[k.index()] = Some(v);
                     }
                 }
             } else {
                 builtin = Profile::PRESETS.iter().copied().find(|p| p.name() == name);
             }
         }
-        let task_name = match eff[Key::Task as usize] {
+        let task_name = match eff[Key::Task.index()] {
             Some(v) => v.to_string(),
             None => "tidy1".to_string(),
         };
@@ -1163,9 +1163,9 @@ impl Sweep {
             steps: default_steps(&task_name),
             ..Params::default()
         };
-        for info in KEYS.iter().filter(|i| !i.key.is_human()) {
-            if let Some(v) = eff[info.key as usize] {
-                keys::apply(info.key, v, &mut params);
+        for key in Key::all().filter(|k| !k.is_human()) {
+            if let Some(v) = eff[key.index()] {
+                keys::apply(key, v, &mut params);
             }
         }
         params.human = builtin
@@ -1175,9 +1175,9 @@ impl Sweep {
             params.reward_source = source;
         }
         let mut human_set = false;
-        for info in KEYS.iter().filter(|i| i.key.is_human()) {
-            if let Some(v) = eff[info.key as usize] {
-                keys::apply(info.key, v, &mut params);
+        for key in Key::all().filter(|k| k.is_human()) {
+            if let Some(v) = eff[key.index()] {
+                keys::apply(key, v, &mut params);
                 human_set = true;
             }
         }
@@ -1189,7 +1189,7 @@ impl Sweep {
         if profile == PROFILE_NONE && builtin.is_none() && human_set {
             profile = PROFILE_CUSTOM;
         }
-        let schedule = match set[Key::Change as usize] {
+        let schedule = match set[Key::Change.index()] {
             Some(v) => {
                 let text = v.to_string();
                 self.schedule_texts
@@ -1237,7 +1237,7 @@ impl Sweep {
         // A built-in profile sets human keys without naming them: point at the profile then.
         let (line, section) = self
             .source(key)
-            .or_else(|| self.source(Key::Profile).filter(|_| key.is_human()))
+            .or_else(|| self.source(Key::PROFILE).filter(|_| key.is_human()))
             .map(|s| (s.line, s.section.clone()))
             .unwrap_or((1, "defaults".into()));
         SweepError::Invalid {
@@ -1289,15 +1289,14 @@ impl Sweep {
             if let Err(e) = r.params.validate_for(&specs[r.task]) {
                 // Not an exhaustive match, so a new error kind elsewhere does not break this.
                 let key = if let ConfigError::InvalidParam { name, .. } = &e {
-                    Key::from_flag(name).unwrap_or(Key::Task)
+                    Key::lookup(name).unwrap_or(Key::Task)
                 } else if let ConfigError::ValueOverflow { because, .. } = &e {
                     // Names the inputs that combine badly: point at the first one the file sets.
-                    KEYS.iter()
-                        .map(|k| k.key)
+                    Key::all()
                         .find(|k| because.contains(k.name()) && self.source(*k).is_some())
                         .unwrap_or(Key::Task)
                 } else if let ConfigError::InteractionUnsupported { .. } = &e {
-                    Key::Interaction
+                    Key::INTERACTION
                 } else {
                     Key::Task
                 };
