@@ -116,7 +116,7 @@ names! {
 }
 
 /// Which experts the meta-controller may choose from, and how (SPEC 4).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum Controller {
     /// Model-free expert alone.
     Mf,
@@ -157,7 +157,7 @@ impl Controller {
 }
 
 /// How the meta-controller turns expert values into a choice (SPEC 4).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum Selection {
     /// Softmax over the two values with `tau`, then a draw (the paper).
     Softmax,
@@ -166,7 +166,7 @@ pub enum Selection {
 }
 
 /// How inference cost is measured (SPEC 6).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum CostModel {
     /// Q values read per inference: deterministic.
     Ops,
@@ -175,7 +175,7 @@ pub enum CostModel {
 }
 
 /// Kind of help the simulated human gives (SPEC 5).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum Interaction {
     /// No human.
     None,
@@ -191,7 +191,7 @@ pub enum Interaction {
 }
 
 /// Who brings the goal's reward (SPEC 11.1).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
 pub enum RewardSource {
     /// The environment, at every arrival in the goal (SPEC 2).
     #[default]
@@ -202,10 +202,9 @@ pub enum RewardSource {
 }
 
 /// How a congratulation acts (SPEC 11.3).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum CongratulationEffect {
     /// On the choice: zeta * G(s, a) in the softmax (Eq. 8, the paper).
-    #[default]
     Bias,
     /// On the learning: the congratulated transition is learned with reward r + zeta by both
     /// experts (reward shaping); no bias in the softmax.
@@ -213,7 +212,7 @@ pub enum CongratulationEffect {
 }
 
 /// Named presets of the human's behaviour (SPEC 5), sweepable as a whole.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum Profile {
     /// No interaction.
     None,

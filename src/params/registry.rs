@@ -141,7 +141,7 @@ impl ParamValue for bool {
 }
 
 /// One parameter of the registry, as the command line, sweep files, outputs and analyses see it.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug)]
 pub struct Param {
     /// The field of [`Params`] (or of its `human`), which is also its output column.
     pub name: &'static str,
