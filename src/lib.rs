@@ -20,5 +20,6 @@ pub mod pipeline;
 pub mod plot;
 pub mod reproduce;
 pub mod schedule;
+pub mod sizing;
 pub mod suggest;
 pub mod sweep;

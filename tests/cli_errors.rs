@@ -75,6 +75,45 @@ impl Fixtures {
             "init 0\ngoal 2 1e306\n",
             "state 3\naction 1\n",
         );
+        fixtures.world(
+            "still",
+            r#"{"transitionActions": []}"#,
+            "init 0\ngoal 2 1\n",
+            "state 3\naction 1\n",
+        );
+        let sweeps = [
+            // A step too small for any value to be counted: refused, not an empty dataset.
+            (
+                "tiny_by.toml",
+                "[grid]\nkappa_coeff = { from = 0, to = 1, by = 1e-320 }\n",
+            ),
+            (
+                "wide_by.toml",
+                "[grid]\nkappa_coeff = { from = -1e308, to = 1e308, by = 1 }\n",
+            ),
+            // 10^12 configurations: sized by arithmetic, refused for the disk.
+            (
+                "grid_1e12.toml",
+                "[grid]\nkappa_coeff = { from = 0, to = 1, steps = 1000000 }\n\
+                 tau = { from = 0.01, to = 1, steps = 1000000 }\n",
+            ),
+            // More runs than an i64 index holds.
+            (
+                "runs_2e63.toml",
+                "seeds = 4294967295\n[grid]\nkappa_coeff = { from = 0, to = 1, steps = 1000000 }\n\
+                 tau = { from = 0.01, to = 1, steps = 1000000 }\n\
+                 alpha_mf = { from = 0.01, to = 1, steps = 1000000 }\n",
+            ),
+            // Fits on any disk (no series), but would take centuries.
+            (
+                "centuries.toml",
+                "[grid]\nkappa_coeff = { from = 0, to = 1, steps = 1000000 }\n\
+                 [fixed]\nsteps = 4294967295\ncheckpoint = 0\ncontroller = \"mf\"\n",
+            ),
+        ];
+        for (name, text) in sweeps {
+            std::fs::write(fixtures.path(name), text).expect("write a sweep file");
+        }
         std::fs::write(fixtures.path("a_file"), "not a folder").expect("write a file");
         std::fs::create_dir_all(fixtures.path("taken/runs.parquet")).expect("a folder");
         fixtures
@@ -478,6 +517,64 @@ const USAGE_ERRORS: &[(&str, &[&str])] = &[
         "env export tidy1 --json {dir}/a_file",
         &["--json {dir}/a_file is a file, not a folder"],
     ),
+    // Ranges that give no value, and jobs too large to run: refused before any work.
+    (
+        "sweep {dir}/tiny_by.toml --dry-run",
+        &["tiny_by.toml:2: key 'kappa_coeff' in [grid]: from 0 to 1 by 1e-320 gives more values"],
+    ),
+    (
+        "sweep {dir}/wide_by.toml --out {dir}/sweep_out",
+        &[
+            "wide_by.toml:2: key 'kappa_coeff'",
+            "by 1 gives",
+            "(at most 1000000)",
+        ],
+    ),
+    (
+        "sweep {dir}/grid_1e12.toml --dry-run",
+        &[
+            "grid_1e12.toml: the results would take about",
+            "(1000000000000 runs rows, 100000000000000 series rows)",
+            "raise key 'checkpoint'",
+            "shrink key 'tau' in [grid] (1000000 values)",
+        ],
+    ),
+    (
+        "sweep {dir}/grid_1e12.toml --out {dir}/sweep_out",
+        &["grid_1e12.toml: the results would take about", "key 'tau'"],
+    ),
+    (
+        "sweep {dir}/runs_2e63.toml --dry-run",
+        &[
+            "runs_2e63.toml:5: the axes give 1000000 x 1000000 x 1000000 = 1.000e18 configurations",
+            "x 4294967295 seeds",
+            "more than run indices hold (2^63 - 1); shrink key 'alpha_mf'",
+        ],
+    ),
+    (
+        "sweep {dir}/centuries.toml --out {dir}/sweep_out",
+        &[
+            "centuries.toml: the job would take about",
+            "days",
+            "more than the 1-year limit",
+            "key 'kappa_coeff' in [grid] (1000000 values)",
+            "--shard I/N",
+        ],
+    ),
+    (
+        "run --runs 1000000 --steps 1000000 --checkpoint 1",
+        &[
+            "the results would take about",
+            "raise --checkpoint (0 writes no series rows)",
+        ],
+    ),
+    (
+        "run --runs 1000000 --steps 4294967295 --checkpoint 0",
+        &[
+            "the job would take about",
+            "more than the 1-year limit: lower --runs or --steps",
+        ],
+    ),
 ];
 
 #[test]
@@ -614,19 +711,39 @@ fn a_full_disk_fails_with_code_1_and_leaves_neither_result_file() {
         return;
     };
     let out = disk.0.path().join("out");
-    // About 100 KiB of series rows: runs.parquet fits, series.parquet does not.
+    // A job whose estimate is far beyond the disk is refused before any work (exit 2).
+    let refused = Command::new(env!("CARGO_BIN_EXE_mbmf"))
+        .args([
+            "run",
+            "--runs",
+            "200",
+            "--steps",
+            "2000",
+            "--checkpoint",
+            "10",
+            "--out",
+        ])
+        .arg(&out)
+        .output()
+        .expect("the binary runs");
+    let stderr = String::from_utf8_lossy(&refused.stderr);
+    assert_eq!(refused.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("raise --checkpoint"), "{stderr}");
+    assert!(!out.exists(), "a refused job created --out");
+    // Estimated at 24 KiB (rows only), it writes about 85 KiB with the files' metadata: the
+    // disk fills while series.parquet is written.
     let output = Command::new(env!("CARGO_BIN_EXE_mbmf"))
         .args([
             "run",
             "--quiet",
             "--runs",
-            "200",
+            "20",
             "--steps",
             "2000",
             "--babbling",
             "10",
         ])
-        .args(["--checkpoint", "10", "--out"])
+        .args(["--checkpoint", "50", "--out"])
         .arg(&out)
         .output()
         .expect("the binary runs");
@@ -777,4 +894,180 @@ fn env_export_refuses_to_overwrite_the_files_it_was_loaded_from() {
     );
     // Another folder is fine.
     assert_eq!(export(&task, &dir.join("copy")).status.code(), Some(0));
+}
+
+#[test]
+fn huge_jobs_are_sized_by_arithmetic_and_print_their_estimate_first() {
+    let fixtures = Fixtures::new();
+    // A 10^12-configuration grid is refused at once: enumerating it would take days.
+    let started = std::time::Instant::now();
+    let (code, stderr) = mbmf(
+        &fixtures,
+        &fixtures.args("sweep {dir}/grid_1e12.toml --dry-run"),
+    );
+    assert_eq!(code, Some(2), "{stderr}");
+    // Generous for a loaded machine; it takes a fraction of a second of CPU.
+    assert!(started.elapsed().as_secs() < 30, "{:?}", started.elapsed());
+    assert!(!fixtures.path("sweep_out").exists());
+    // A huge run prints its size and estimated time before it starts (here it then stops at
+    // the earlier results in --out, so nothing runs).
+    std::fs::create_dir_all(fixtures.path("earlier")).expect("a folder");
+    std::fs::write(fixtures.path("earlier/runs.parquet"), "old").expect("a file");
+    let (code, stderr) = mbmf(
+        &fixtures,
+        &fixtures.args(
+            "run --controller mf --runs 1000000 --steps 10000 --checkpoint 0 --out {dir}/earlier",
+        ),
+    );
+    assert_eq!(code, Some(2), "{stderr}");
+    let note = stderr
+        .lines()
+        .find(|l| l.starts_with("note: 1000000 runs, 11000000000 agent-steps"))
+        .unwrap_or_else(|| panic!("no size note:\n{stderr}"));
+    assert!(
+        note.contains("about 61.0 MiB of output (1000000 runs rows, 0 series rows)")
+            && note.contains("estimated time: about"),
+        "{note}"
+    );
+    assert!(
+        stderr.contains("holds the results of an earlier run"),
+        "{stderr}"
+    );
+}
+
+#[test]
+fn likely_mistakes_are_warned_once_naming_the_flag_or_key() {
+    let fixtures = Fixtures::new();
+    let warned = |line: &str| {
+        let (code, stderr) = mbmf(&fixtures, &fixtures.args(line));
+        assert_eq!(code, Some(0), "mbmf {line}:\n{stderr}");
+        stderr
+            .lines()
+            .filter(|l| l.starts_with("warning: "))
+            .map(str::to_string)
+            .collect::<Vec<_>>()
+    };
+    let quick = "--runs 2 --steps 20 --babbling 5 --force --quiet";
+    let w = warned(&format!("run --controller mf,mb,mf {quick}"));
+    assert_eq!(
+        w,
+        [
+            "warning: --controller lists mf twice: each listing adds --runs 2 runs (with other run \
+          indices), and the summary merges them into one row"
+        ],
+    );
+    let w = warned(&format!("run --controller mf,mf,mf {quick}"));
+    assert!(w.len() == 1 && w[0].contains("lists mf 3 times"), "{w:?}");
+    let w = warned(&format!("run --budget 30 {quick}"));
+    assert_eq!(w.len(), 1, "{w:?}");
+    assert!(w[0].contains("--budget 30 has no effect"), "{w:?}");
+    // A budget with an interaction, from the flag or a later change, is used.
+    assert!(warned(&format!("run --budget 30 --interaction takeover {quick}")).is_empty());
+    assert!(
+        warned(&format!(
+            "run --budget 30 --change 5:interaction=takeover {quick}"
+        ))
+        .is_empty()
+    );
+    let w = warned(&format!("run --task json:{{dir}}/still/world.json {quick}"));
+    assert_eq!(w.len(), 1, "{w:?}");
+    assert!(
+        w[0].contains("/still/world.json: the world has no transition at all"),
+        "{w:?}"
+    );
+    assert!(warned(&format!("run --controller mf,mb {quick}")).is_empty());
+
+    let sweep = fixtures.path("twice.toml");
+    std::fs::write(
+        &sweep,
+        "[grid]\nkappa_coeff = [1, 1.0, 2, 1]\ncontroller = [\"mf\", \"mb\", \"mf\"]\n\
+         [[zip]]\ninteraction = [\"none\", \"takeover\", \"takeover\"]\nbudget = [0, 30, 30]\n",
+    )
+    .expect("write");
+    let w = warned(&format!("sweep {} --dry-run", sweep.display()));
+    let file = sweep.display().to_string();
+    assert_eq!(
+        w,
+        [
+            format!(
+                "warning: {file}:2: key 'kappa_coeff' in [grid] lists 1 3 times: its \
+                 configurations run that many times (use 'seeds' for replicates)"
+            ),
+            format!(
+                "warning: {file}:3: key 'controller' in [grid] lists \"mf\" twice: its \
+                 configurations run that many times (use 'seeds' for replicates)"
+            ),
+            format!(
+                "warning: {file}:5: [[zip]] #1 lists the row (interaction = takeover, budget = \
+                 30) more than once: its configurations run that many times (use 'seeds' for \
+                 replicates)"
+            ),
+        ]
+    );
+    let still = fixtures.path("still.toml");
+    std::fs::write(
+        &still,
+        format!(
+            "[fixed]\ntask = \"json:{}/still/world.json\"\nsteps = 10\n",
+            fixtures.dir.path().display()
+        ),
+    )
+    .expect("write");
+    let w = warned(&format!("sweep {} --dry-run", still.display()));
+    assert_eq!(w.len(), 1, "{w:?}");
+    assert!(
+        w[0].contains("still.toml:2: key 'task' in [fixed]: task json:")
+            && w[0].contains("no transition at all"),
+        "{w:?}"
+    );
+}
+
+/// Peak resident memory (KiB) of `mbmf ARGS`, measured by `wait4` on the child alone.
+// The child is reaped by wait4 (which reports its own peak), not by Child::wait.
+#[allow(clippy::zombie_processes)]
+fn peak_kib(args: &[String]) -> i64 {
+    let child = std::process::Command::new(env!("CARGO_BIN_EXE_mbmf"))
+        .args(args)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .expect("the binary starts");
+    let mut status = 0;
+    // SAFETY: an all-zero rusage is valid; wait4 fills it for this child only.
+    let mut usage: libc::rusage = unsafe { std::mem::zeroed() };
+    // SAFETY: the pid is our child, not yet waited for; both pointers are valid.
+    let pid = unsafe { libc::wait4(child.id() as i32, &mut status, 0, &mut usage) };
+    assert_eq!(pid, child.id() as i32, "wait4");
+    assert!(
+        libc::WIFEXITED(status) && libc::WEXITSTATUS(status) == 0,
+        "mbmf {args:?}: {status}"
+    );
+    usage.ru_maxrss
+}
+
+#[test]
+fn run_memory_does_not_grow_with_the_number_of_runs() {
+    let dir = TempDir::new().expect("a folder");
+    // 2,000 series rows per run, 64 runs per batch: 0.5 M series rows, then 2 M.
+    let peak = |runs: u32| {
+        let line = format!(
+            "run --controller mf --runs {runs} --steps 2000 --babbling 10 --checkpoint 1 \
+             --batch-size 64 --quiet --force --out {}",
+            dir.path().join(runs.to_string()).display()
+        );
+        peak_kib(
+            &line
+                .split_whitespace()
+                .map(String::from)
+                .collect::<Vec<_>>(),
+        )
+    };
+    let small = peak(256);
+    let large = peak(1024);
+    // Kept in memory, 1.5 M more series rows would add hundreds of MiB; streamed, the peak
+    // stays that of one batch (plus Parquet's row-group buffer).
+    assert!(
+        large < small + small / 2,
+        "peak {large} KiB for 1024 runs, {small} KiB for 256"
+    );
 }

@@ -786,3 +786,79 @@ fn a_100000_run_sweep_holds_one_batch_in_memory_not_all_runs() {
         peak_kb / 1024
     );
 }
+
+#[test]
+fn validation_checks_the_combinations_that_interact_and_finds_the_first_bad_one() {
+    // 10^9 configurations, of which only interaction and task are checked together: validated
+    // in a moment, and the first bad configuration is the one an enumeration would name.
+    let dir = tempfile::tempdir().expect("a folder");
+    std::fs::write(
+        dir.path().join("w.json"),
+        r#"{"transitionActions": [{"state": 0, "transitions": [{"action": 0, "state": 1, "prob": 1}]}]}"#,
+    )
+    .expect("write");
+    std::fs::write(dir.path().join("keyStates.txt"), "init 0\ngoal 1 1\n").expect("write");
+    std::fs::write(dir.path().join("spaces.txt"), "state 2\naction 1\n").expect("write");
+    let text = "[fixed]\ntask = \"json:w.json\"\nbudget = 10\n[grid]\n\
+                kappa_coeff = { from = 0, to = 1, steps = 1000000 }\n\
+                tau = { from = 0.01, to = 1, steps = 500 }\n\
+                interaction = [\"none\", \"takeover\"]\n";
+    let sweep = Sweep::parse("i.toml", dir.path(), text).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(sweep.configurations(), 1_000_000_000);
+    let specs = sweep.load_specs().unwrap_or_else(|e| panic!("{e}"));
+    let started = std::time::Instant::now();
+    let e = sweep
+        .check(&specs)
+        .expect_err("takeover on a json task")
+        .to_string();
+    assert!(started.elapsed().as_secs() < 10, "{:?}", started.elapsed());
+    assert!(
+        e.starts_with("i.toml:7: key 'interaction' in [grid]: configuration 1 (kappa_coeff = 0, tau = 0.01, interaction = takeover")
+            ,
+        "{e}"
+    );
+    // Without the bad value the same grid passes.
+    let ok = text.replace("\"takeover\"", "\"none\"");
+    let sweep = Sweep::parse("i.toml", dir.path(), &ok).unwrap_or_else(|e| panic!("{e}"));
+    let specs = sweep.load_specs().unwrap_or_else(|e| panic!("{e}"));
+    sweep.check(&specs).unwrap_or_else(|e| panic!("{e}"));
+
+    // Steps interact with the steps of a schedule's changes: the first configuration whose
+    // change falls outside its run is named (kappa_coeff = 0 with steps = 10).
+    let big = "[fixed]\nchange = \"15:interaction=takeover\"\n[grid]\n\
+               kappa_coeff = { from = 0, to = 1, steps = 1000000 }\nsteps = [20, 10]\n";
+    let sweep = parse(big);
+    let specs = sweep.load_specs().unwrap_or_else(|e| panic!("{e}"));
+    let e = sweep.check(&specs).expect_err("step 15 of 10").to_string();
+    assert!(
+        e.starts_with(
+            "test.toml:2: key 'change' in [fixed]: configuration 1 (kappa_coeff = 0, steps = 10)"
+        ) && e.contains("step 15 is outside the experiment"),
+        "{e}"
+    );
+}
+
+#[test]
+fn a_sweep_is_sized_by_arithmetic_exactly_as_by_enumeration() {
+    // 400,000 configurations: beyond what is enumerated, so sized through the steps and
+    // checkpoint axes.
+    let text = "seeds = 3\n[grid]\nkappa_coeff = { from = 0, to = 1, steps = 100000 }\n\
+                steps = [10, 25]\ncheckpoint = [0, 10]\n[fixed]\nbabbling = 5\n";
+    let sweep = parse(text);
+    let size = sweep.size(Shard::ALL);
+    assert!(size.exact);
+    let n = 100_000u128 * 3;
+    assert_eq!(size.runs, 4 * n);
+    // Per kappa value and seed: steps 10 and 25, each with checkpoint 0 and 10, 5 babbling.
+    assert_eq!(size.agent_steps, n * 2 * (15 + 30));
+    // Rows: checkpoint 0 none; checkpoint 10 gives 1 (10 steps) and 3 (25 steps).
+    assert_eq!(size.series_rows, n * (1 + 3));
+    // A shard of it is estimated from the same axes, in proportion.
+    let half = sweep.size(Shard { index: 1, count: 2 });
+    assert_eq!(half.runs, 2 * n);
+    assert!(!half.exact && half.agent_steps == n * (15 + 30));
+    // A small grid is enumerated: the same counts.
+    let small = parse("[grid]\nsteps = [10, 25]\ncheckpoint = [0, 10]\n[fixed]\nbabbling = 5\n");
+    let size = small.size(Shard::ALL);
+    assert_eq!((size.runs, size.agent_steps, size.series_rows), (4, 90, 4));
+}

@@ -10,10 +10,12 @@ use clap::Args;
 use super::args::{ParamArgs, batch_size, explain, load_task, runs_count, seed};
 use super::{Failure, progress, runtime, usage};
 use crate::batch::{Batch, RunConfig};
+use crate::env::Spec;
 use crate::output;
 use crate::params::{Controller, Params, Profile, default_steps};
 use crate::pipeline;
 use crate::schedule::{self, Schedule};
+use crate::sizing;
 
 /// `mbmf run`.
 #[derive(Debug, Clone, Args)]
@@ -77,8 +79,28 @@ pub struct RunArgs {
 /// Builds the configurations of `mbmf run`: for each controller, `runs` runs with consecutive
 /// run indices (controller-major). Every parameter is validated.
 pub fn run_configs(args: &RunArgs) -> Result<Vec<RunConfig>> {
-    let mut configs = Vec::new();
-    for (ci, &controller) in args.controller.iter().enumerate() {
+    Ok(expand(args, &controller_params(args)?))
+}
+
+/// The runs of `params` (one entry per controller), `args.runs` each, numbered controller-major.
+fn expand(args: &RunArgs, params: &[Params]) -> Vec<RunConfig> {
+    let mut configs = Vec::with_capacity(params.len() * args.runs as usize);
+    for (ci, params) in params.iter().enumerate() {
+        for r in 0..args.runs {
+            configs.push(RunConfig {
+                params: *params,
+                seed: args.seed,
+                run_index: ci as u64 * u64::from(args.runs) + u64::from(r),
+            });
+        }
+    }
+    configs
+}
+
+/// The validated parameters of each controller's runs, in `--controller` order.
+fn controller_params(args: &RunArgs) -> Result<Vec<Params>> {
+    let mut all = Vec::new();
+    for &controller in &args.controller {
         let profile = args.profile.unwrap_or(Profile::None);
         let mut params = Params {
             controller,
@@ -94,15 +116,56 @@ pub fn run_configs(args: &RunArgs) -> Result<Vec<RunConfig>> {
             params.profile = Profile::Custom;
         }
         params.validate().map_err(explain)?;
-        for r in 0..args.runs {
-            configs.push(RunConfig {
-                params,
-                seed: args.seed,
-                run_index: ci as u64 * u64::from(args.runs) + u64::from(r),
-            });
+        all.push(params);
+    }
+    Ok(all)
+}
+
+/// Inputs that are legal but almost surely mistakes, as warnings naming the flag, each cause
+/// once.
+fn warnings(args: &RunArgs, schedule: &Schedule, params: &[Params], spec: &Spec) -> Vec<String> {
+    let mut warnings = Vec::new();
+    for (i, &c) in args.controller.iter().enumerate() {
+        let times = args.controller.iter().filter(|&&k| k == c).count();
+        if times > 1 && !args.controller[..i].contains(&c) {
+            let times = match times {
+                2 => "twice".to_string(),
+                n => format!("{n} times"),
+            };
+            warnings.push(format!(
+                "--controller lists {} {times}: each listing adds --runs {} runs (with other \
+                 run indices), and the summary merges them into one row",
+                c.name(),
+                args.runs
+            ));
         }
     }
-    Ok(configs)
+    // A budget is spent by an interaction: from --interaction, the profile, or a later change.
+    let changes_human = schedule.changes.iter().any(|c| {
+        matches!(
+            c.event,
+            schedule::Event::Interaction(_) | schedule::Event::Profile(_)
+        )
+    });
+    if let Some((_, budget)) = args.params.given.iter().find(|(p, _)| p.name == "budget")
+        && !changes_human
+        && params
+            .iter()
+            .all(|p| p.human.interaction == crate::params::Interaction::None)
+    {
+        warnings.push(format!(
+            "--budget {budget} has no effect: no interaction uses it (give --interaction, a \
+             --profile with one, or a --change STEP:interaction=...)"
+        ));
+    }
+    if !spec.can_move() {
+        warnings.push(format!(
+            "--task {}: the world has no transition at all, so the robot never moves and never \
+             reaches the goal",
+            args.task
+        ));
+    }
+    warnings
 }
 
 /// `mbmf run`: every input is checked (flags, task files, the output folder, memory) before the
@@ -115,17 +178,19 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
     )
     .map_err(usage)?;
     let spec = Arc::new(spec);
-    let configs = run_configs(args).map_err(usage)?;
+    let params = controller_params(args).map_err(usage)?;
     let schedule = Schedule::from_events(args.change.iter().map(String::as_str))
         .map_err(|e| usage(anyhow!("--change: {e}")))?;
-    // Runs of one controller share their parameters: check the first of each.
-    for c in configs.iter().step_by(args.runs.max(1) as usize) {
-        c.params
-            .validate_for(&spec)
-            .map_err(|e| usage(explain(e)))?;
-        schedule::compile(&spec, &schedule, &c.params)
-            .map_err(|e| usage(anyhow!("--change: {e}")))?;
+    // Runs of one controller share their parameters: check each controller's.
+    for p in &params {
+        p.validate_for(&spec).map_err(|e| usage(explain(e)))?;
+        schedule::compile(&spec, &schedule, p).map_err(|e| usage(anyhow!("--change: {e}")))?;
     }
+    for warning in warnings(args, &schedule, &params, &spec) {
+        eprintln!("warning: {warning}");
+    }
+    size_up(args, &spec, &params)?;
+    let configs = expand(args, &params);
     let schedules = [schedule];
     let run_schedule = vec![0; configs.len()];
     let batch_size = pipeline::plan_batch_size(&spec, &configs, args.batch_size).map_err(usage)?;
@@ -142,7 +207,7 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
     let mut runs_sink = output::ParquetSink::new(&staging.0.join("runs.parquet"), runs_meta);
     let mut series_sink = output::ParquetSink::new(&staging.0.join("series.parquet"), series_meta);
     let bar = progress::bar(pipeline::agent_steps(&configs), args.quiet, false);
-    let mut summary = Summary::default();
+    let mut summary = Summary::new(&args.out);
     let started = std::time::Instant::now();
     let per = u64::from(args.runs);
     pipeline::simulate_with_schedules(
@@ -158,12 +223,13 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
                 output::series_batch(batch)?,
                 per,
             )?)?;
-            summary.add(batch);
+            summary.add(batch)?;
             Ok::<(), anyhow::Error>(())
         },
     )
     .map_err(runtime)?;
     bar.finish_and_clear();
+    let rows = summary.rows().map_err(runtime)?;
     let runs_staged = runs_sink.finish().map_err(runtime)?;
     let series_staged = series_sink.finish().map_err(runtime)?;
     output::atomic::commit_pair(
@@ -185,18 +251,90 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
             },
             "runs": configs.len(),
             "seconds": started.elapsed().as_secs_f64(),
-            "controllers": summary.json_rows(),
+            "controllers": json_rows(&rows),
         });
         outln!("{report}");
     } else {
         out!(
             "{}",
-            summary.table(&args.task, configs.len(), started.elapsed().as_secs_f64())
+            table(
+                &rows,
+                &args.task,
+                configs.len(),
+                started.elapsed().as_secs_f64()
+            )
         );
         outln!(
             "wrote {} and {}",
             runs_path.display(),
             series_path.display()
+        );
+    }
+    Ok(())
+}
+
+/// Sizes the job before anything is allocated: refuses one whose results cannot fit on the disk
+/// or that would run for more than a year, and prints the estimated time and output of a huge
+/// one (the estimate of `mbmf sweep --dry-run`).
+fn size_up(args: &RunArgs, spec: &Arc<Spec>, params: &[Params]) -> Result<(), Failure> {
+    // Memory first (a run that cannot fit is refused whatever the disk), on one run per
+    // controller: the batch plan depends on the largest run, not on how many there are.
+    let one_each: Vec<RunConfig> = params
+        .iter()
+        .map(|p| RunConfig {
+            params: *p,
+            seed: args.seed,
+            run_index: 0,
+        })
+        .collect();
+    pipeline::plan_batch_size(spec, &one_each, args.batch_size).map_err(usage)?;
+    let mut size = sizing::Size::default();
+    for p in params {
+        size.add(u128::from(args.runs), p);
+    }
+    let shrink = sizing::Shrink {
+        runs: "lower --runs (runs per controller) or give fewer --controller".into(),
+        series: "raise --checkpoint (0 writes no series rows), or lower --steps or --runs".into(),
+        time: "lower --runs or --steps, or give fewer --controller".into(),
+    };
+    // With --force the results already there are replaced, so their space counts as free.
+    let credit = if args.force {
+        ["runs.parquet", "series.parquet"]
+            .iter()
+            .filter_map(|f| std::fs::metadata(args.out.join(f)).ok())
+            .map(|m| m.len())
+            .sum()
+    } else {
+        0
+    };
+    sizing::check_size(&size, &args.out, credit, &shrink).map_err(usage)?;
+    if !size.is_huge() {
+        return Ok(());
+    }
+    let groups: Vec<sizing::SampleGroup> = params
+        .iter()
+        .enumerate()
+        .map(|(ci, p)| sizing::SampleGroup {
+            task: 0,
+            samples: (0..args.runs.min(2))
+                .map(|r| RunConfig {
+                    params: *p,
+                    seed: args.seed,
+                    run_index: ci as u64 * u64::from(args.runs) + u64::from(r),
+                })
+                .collect(),
+            agent_steps: u128::from(args.runs) * (u128::from(p.babbling) + u128::from(p.steps)),
+        })
+        .collect();
+    let estimate =
+        sizing::time(std::slice::from_ref(spec), &groups).map_err(|e| usage(explain(e)))?;
+    sizing::check_time(&estimate, &shrink).map_err(usage)?;
+    if !args.quiet {
+        eprintln!(
+            "note: {}; estimated time: about {} with {} thread(s)",
+            size.line(),
+            sizing::human_duration(estimate.seconds),
+            estimate.threads
         );
     }
     Ok(())
@@ -274,108 +412,213 @@ impl Drop for Staging {
     }
 }
 
-/// One run in the summary table: total reward, total cost, MB share (if it made decisions).
-type RunSummary = (f64, f64, Option<f64>);
+/// One controller's values of the summary table, spilled to an unnamed temporary file (24 bytes
+/// per run) so that memory does not grow with `--runs`, and read back in passes to compute the
+/// exact two-pass statistics of [`mean_sd`] (a one-pass formula would move the last printed
+/// digit of some means).
+struct Spill {
+    controller: Controller,
+    runs: usize,
+    file: std::io::BufWriter<std::fs::File>,
+}
 
-/// Per-controller results for the table printed after a run.
-#[derive(Default)]
+/// A controller's row of the table: (mean, sd) of total reward, total cost and MB share (over
+/// the runs that made decisions; `None` if none did).
+struct Row {
+    controller: Controller,
+    runs: usize,
+    reward: (f64, f64),
+    cost: (f64, f64),
+    share: Option<(f64, f64)>,
+}
+
+/// Per-controller results for the table printed after a run, accumulated batch by batch.
 struct Summary {
-    rows: Vec<(Controller, Vec<RunSummary>)>,
+    /// Where the spill files are created (unnamed: nothing is left behind, even after a kill).
+    dir: PathBuf,
+    spills: Vec<Spill>,
 }
 
 impl Summary {
-    fn add(&mut self, batch: &Batch) {
-        for (config, stats) in batch.configs().iter().zip(batch.stats()) {
-            let c = config.params.controller;
-            let share =
-                (stats.decisions > 0).then(|| stats.mb_decisions as f64 / stats.decisions as f64);
-            let entry = match self.rows.iter_mut().position(|(k, _)| *k == c) {
-                Some(i) => &mut self.rows[i].1,
-                None => {
-                    self.rows.push((c, Vec::new()));
-                    &mut self.rows.last_mut().expect("just pushed").1
-                }
-            };
-            entry.push((stats.total_reward, stats.cost_total(), share));
+    fn new(dir: &Path) -> Summary {
+        Summary {
+            dir: dir.to_path_buf(),
+            spills: Vec::new(),
         }
     }
 
-    /// The table's rows as JSON objects: means and sample standard deviations (null where no run
-    /// has a value).
-    fn json_rows(&self) -> Vec<serde_json::Value> {
-        self.rows
-            .iter()
-            .map(|(controller, values)| {
-                let (r, rs) = mean_sd(&values.iter().map(|v| v.0).collect::<Vec<_>>());
-                let (c, cs) = mean_sd(&values.iter().map(|v| v.1).collect::<Vec<_>>());
-                let shares: Vec<f64> = values.iter().filter_map(|v| v.2).collect();
-                let (m, ms) = mean_sd(&shares);
-                serde_json::json!({
-                    "controller": controller.name(),
-                    "runs": values.len(),
-                    "total_reward_mean": r,
-                    "total_reward_sd": rs,
-                    "total_cost_mean": c,
-                    "total_cost_sd": cs,
-                    "mb_share_mean": m,
-                    "mb_share_sd": ms,
+    fn add(&mut self, batch: &Batch) -> Result<()> {
+        use std::io::Write as _;
+        for (config, stats) in batch.configs().iter().zip(batch.stats()) {
+            let c = config.params.controller;
+            let i = match self.spills.iter().position(|s| s.controller == c) {
+                Some(i) => i,
+                None => {
+                    let file = tempfile::tempfile_in(&self.dir).with_context(|| {
+                        format!("cannot create a temporary file in {}", self.dir.display())
+                    })?;
+                    self.spills.push(Spill {
+                        controller: c,
+                        runs: 0,
+                        file: std::io::BufWriter::new(file),
+                    });
+                    self.spills.len() - 1
+                }
+            };
+            let share = if stats.decisions > 0 {
+                stats.mb_decisions as f64 / stats.decisions as f64
+            } else {
+                f64::NAN
+            };
+            let spill = &mut self.spills[i];
+            spill.runs += 1;
+            for x in [stats.total_reward, stats.cost_total(), share] {
+                spill.file.write_all(&x.to_le_bytes())?;
+            }
+        }
+        Ok(())
+    }
+
+    /// The rows, in order of first appearance.
+    fn rows(self) -> Result<Vec<Row>> {
+        self.spills
+            .into_iter()
+            .map(|spill| {
+                let runs = spill.runs;
+                let controller = spill.controller;
+                let file = spill.file.into_inner().map_err(|e| e.into_error())?;
+                let reward = passes(&file, 0)?;
+                let cost = passes(&file, 1)?;
+                let share = passes(&file, 2)?;
+                Ok(Row {
+                    controller,
+                    runs,
+                    reward,
+                    cost,
+                    // Shares are finite, so NaN means no run made a decision.
+                    share: (!share.0.is_nan()).then_some(share),
                 })
             })
             .collect()
     }
+}
 
-    /// The table: mean ± standard deviation per controller ("-" where no run has a value).
-    fn table(&self, task: &str, runs: usize, seconds: f64) -> String {
-        use std::fmt::Write as _;
-        let mut out = String::new();
-        let _ = writeln!(out, "{task}: {runs} runs in {seconds:.2} s");
+/// Runs the arithmetic of [`mean_sd`] over column `k` of a spill file (NaN: no value), reading it
+/// once per pass.
+fn passes(file: &std::fs::File, k: usize) -> Result<(f64, f64)> {
+    use std::io::{Read as _, Seek as _};
+    let values = |f: &mut dyn FnMut(f64)| -> Result<()> {
+        let mut handle = file;
+        handle.rewind()?;
+        let mut reader = std::io::BufReader::new(handle);
+        let mut record = [0u8; 24];
+        loop {
+            match reader.read_exact(&mut record) {
+                Ok(()) => {}
+                Err(e) if e.kind() == std::io::ErrorKind::UnexpectedEof => return Ok(()),
+                Err(e) => return Err(e.into()),
+            }
+            let x = f64::from_le_bytes(record[8 * k..8 * k + 8].try_into().expect("8 bytes"));
+            if !x.is_nan() {
+                f(x);
+            }
+        }
+    };
+    let mut error = None;
+    let stats = mean_sd_passes(|f| {
+        if let Err(e) = values(f) {
+            error.get_or_insert(e);
+        }
+    });
+    match error {
+        Some(e) => Err(e.context("cannot read back the summary's temporary file")),
+        None => Ok(stats),
+    }
+}
+
+/// The table's rows as JSON objects: means and sample standard deviations (null where no run
+/// has a value).
+fn json_rows(rows: &[Row]) -> Vec<serde_json::Value> {
+    rows.iter()
+        .map(|row| {
+            let (m, ms) = row.share.unwrap_or((f64::NAN, f64::NAN));
+            serde_json::json!({
+                "controller": row.controller.name(),
+                "runs": row.runs,
+                "total_reward_mean": row.reward.0,
+                "total_reward_sd": row.reward.1,
+                "total_cost_mean": row.cost.0,
+                "total_cost_sd": row.cost.1,
+                "mb_share_mean": m,
+                "mb_share_sd": ms,
+            })
+        })
+        .collect()
+}
+
+/// The table: mean ± standard deviation per controller ("-" where no run has a value).
+fn table(rows: &[Row], task: &str, runs: usize, seconds: f64) -> String {
+    use std::fmt::Write as _;
+    let mut out = String::new();
+    let _ = writeln!(out, "{task}: {runs} runs in {seconds:.2} s");
+    let _ = writeln!(
+        out,
+        "{:<10} {:>5} {:>22} {:>26} {:>18}",
+        "controller", "runs", "total reward", "total cost (ops)", "MB share"
+    );
+    for row in rows {
+        let ((r, rs), (c, cs)) = (row.reward, row.cost);
+        let share = match row.share {
+            None => format!("{:>18}", "-"),
+            Some((m, ms)) => format!("{m:>8.3} ± {ms:.3}"),
+        };
         let _ = writeln!(
             out,
-            "{:<10} {:>5} {:>22} {:>26} {:>18}",
-            "controller", "runs", "total reward", "total cost (ops)", "MB share"
+            "{:<10} {:>5} {:>12.1} ± {:<7.1} {:>15.4e} ± {:<8.2e} {share}",
+            row.controller.name(),
+            row.runs,
+            r,
+            rs,
+            c,
+            cs,
         );
-        for (controller, values) in &self.rows {
-            let (r, rs) = mean_sd(&values.iter().map(|v| v.0).collect::<Vec<_>>());
-            let (c, cs) = mean_sd(&values.iter().map(|v| v.1).collect::<Vec<_>>());
-            let shares: Vec<f64> = values.iter().filter_map(|v| v.2).collect();
-            let share = if shares.is_empty() {
-                format!("{:>18}", "-")
-            } else {
-                let (m, ms) = mean_sd(&shares);
-                format!("{m:>8.3} ± {ms:.3}")
-            };
-            let _ = writeln!(
-                out,
-                "{:<10} {:>5} {:>12.1} ± {:<7.1} {:>15.4e} ± {:<8.2e} {share}",
-                controller.name(),
-                values.len(),
-                r,
-                rs,
-                c,
-                cs,
-            );
-        }
-        out
     }
+    out
 }
 
 /// Mean and sample standard deviation (NaN for no value, 0 for one). Values are scaled by the
 /// largest magnitude first, so huge rewards (1e300) give a finite mean and deviation.
 pub fn mean_sd(xs: &[f64]) -> (f64, f64) {
-    if xs.is_empty() {
+    mean_sd_passes(|f| xs.iter().copied().for_each(f))
+}
+
+/// [`mean_sd`] over values that `each` hands to its argument, once per pass (three passes), so
+/// the values need not be held in memory.
+fn mean_sd_passes(mut each: impl FnMut(&mut dyn FnMut(f64))) -> (f64, f64) {
+    let mut n = 0usize;
+    let mut scale = 0.0f64;
+    each(&mut |x| {
+        n += 1;
+        scale = scale.max(x.abs());
+    });
+    if n == 0 {
         return (f64::NAN, f64::NAN);
     }
-    let scale = xs.iter().fold(0.0f64, |m, x| m.max(x.abs()));
     if scale == 0.0 || !scale.is_finite() {
         let mean = if scale == 0.0 { 0.0 } else { f64::NAN };
         return (mean, if scale == 0.0 { 0.0 } else { f64::NAN });
     }
-    let n = xs.len() as f64;
-    let mean = xs.iter().map(|x| x / scale).sum::<f64>() / n;
-    if xs.len() < 2 {
+    let count = n as f64;
+    // Summed in order from -0.0, as `Iterator::sum` does, so results equal a slice's sum.
+    let mut sum = -0.0f64;
+    each(&mut |x| sum += x / scale);
+    let mean = sum / count;
+    if n < 2 {
         return (mean * scale, 0.0);
     }
-    let var = xs.iter().map(|x| (x / scale - mean).powi(2)).sum::<f64>() / (n - 1.0);
+    let mut squares = -0.0f64;
+    each(&mut |x| squares += (x / scale - mean).powi(2));
+    let var = squares / (count - 1.0);
     (mean * scale, var.sqrt() * scale)
 }
 
@@ -393,5 +636,42 @@ mod tests {
         assert_eq!(mean_sd(&[2.0, 4.0]), (3.0, 2f64.sqrt()));
         assert_eq!(mean_sd(&[0.0, 0.0]), (0.0, 0.0));
         assert!(mean_sd(&[]).0.is_nan());
+    }
+
+    #[test]
+    fn statistics_in_passes_equal_those_of_a_slice_bit_for_bit() {
+        let cases: [&[f64]; 6] = [
+            &[3.0],
+            &[2.0, 4.0],
+            &[1098.5, 1200.25, 870.0, 1500.75, 999.0],
+            &[1e305, 3e305, -1e305, 3e305, 2e300],
+            &[0.5, 1e-300, 7.0, f64::INFINITY],
+            &[0.1, 0.2, 0.3, 0.4, 0.7, 1.1],
+        ];
+        for xs in cases {
+            let old = two_pass(xs);
+            let new = mean_sd(xs);
+            assert_eq!(
+                (old.0.to_bits(), old.1.to_bits()),
+                (new.0.to_bits(), new.1.to_bits()),
+                "{xs:?}"
+            );
+        }
+    }
+
+    /// The slice formula the table always used.
+    fn two_pass(xs: &[f64]) -> (f64, f64) {
+        let scale = xs.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+        if scale == 0.0 || !scale.is_finite() {
+            let mean = if scale == 0.0 { 0.0 } else { f64::NAN };
+            return (mean, if scale == 0.0 { 0.0 } else { f64::NAN });
+        }
+        let n = xs.len() as f64;
+        let mean = xs.iter().map(|x| x / scale).sum::<f64>() / n;
+        if xs.len() < 2 {
+            return (mean * scale, 0.0);
+        }
+        let var = xs.iter().map(|x| (x / scale - mean).powi(2)).sum::<f64>() / (n - 1.0);
+        (mean * scale, var.sqrt() * scale)
     }
 }

@@ -8,6 +8,7 @@ use anyhow::anyhow;
 use clap::Args;
 
 use super::{Failure, progress, runtime, usage};
+use crate::sizing;
 use crate::sweep::{Event, Options, Shard, Sweep, describe_plan, execute, runner, shard, store};
 
 const EXAMPLES: &str = "\
@@ -89,29 +90,76 @@ pub fn command(args: &SweepArgs) -> Result<(), Failure> {
         super::args::check_out_dir(&args.out_dir(), "--out")?;
     }
     let sweep = Sweep::load(&args.file).map_err(usage)?;
+    for warning in &sweep.warnings {
+        eprintln!("warning: {warning}");
+    }
     let shard = args.shard().map_err(usage)?;
     if args.batch_size == 0 {
         return Err(usage(anyhow!("--batch-size must be at least 1")));
     }
+    // Sized by arithmetic before anything is loaded, checked or allocated: a grid too large
+    // to run is refused in a moment, naming what shrinks it.
+    let size = sweep.size(shard);
+    let shrink = sweep.shrink();
+    let out = args.out_dir();
+    let credit = if args.resume {
+        sizing::bytes_under(&out)
+    } else {
+        0
+    };
+    sizing::check_size(&size, &out, credit, &shrink)
+        .map_err(|e| usage(anyhow!("{}: {e}", args.file.display())))?;
     let specs = sweep.load_specs().map_err(usage)?;
+    for (task, spec) in sweep.tasks.iter().zip(&specs) {
+        if !spec.can_move() {
+            eprintln!(
+                "warning: {}: task {task}: the world has no transition at all, so the robot \
+                 never moves and never reaches the goal",
+                sweep.place(crate::sweep::keys::Key::Task)
+            );
+        }
+    }
     sweep.check(&specs).map_err(usage)?;
-    if args.dry_run {
-        outln!("{}", describe_plan(&sweep, shard));
+    if args.dry_run || size.is_huge() {
         let e = runner::estimate(&sweep, &specs, shard).map_err(usage)?;
         let time = if e.seconds < 1.0 {
             "under a second".to_string()
         } else {
             format!("about {}", runner::human_duration(e.seconds))
         };
-        outln!(
-            "  agent-steps: {} (babbling included)\nestimated time: {time} with {} thread(s) \
-             (timed on {} sample run(s) in {:.1} s)",
-            e.agent_steps,
+        let estimate = format!(
+            "estimated time: {time} with {} thread(s) (timed on {} sample run(s) in {:.1} s)\n\
+             estimated output: about {} ({} runs rows, {}{} series rows)",
             e.threads,
             e.samples,
-            e.calibration_seconds
+            e.calibration_seconds,
+            sizing::human_bytes(size.output_bytes()),
+            size.runs,
+            if size.exact { "" } else { "about " },
+            size.series_rows
         );
-        return Ok(());
+        if args.dry_run {
+            outln!("{}", describe_plan(&sweep, shard));
+            outln!(
+                "  agent-steps: {}{} (babbling included)\n{estimate}",
+                if size.exact { "" } else { "about " },
+                e.agent_steps
+            );
+            if let Err(refusal) = sizing::check_time(&e, &shrink) {
+                return Err(usage(anyhow!("{}: {refusal}", args.file.display())));
+            }
+            return Ok(());
+        }
+        sizing::check_time(&e, &shrink)
+            .map_err(|refusal| usage(anyhow!("{}: {refusal}", args.file.display())))?;
+        if !args.quiet {
+            eprintln!(
+                "{}: {} runs, {} agent-steps; {estimate}",
+                args.file.display(),
+                size.runs,
+                e.agent_steps
+            );
+        }
     }
     let options = Options {
         out: args.out_dir(),

@@ -72,6 +72,17 @@ impl Spec {
         s * self.n_actions + a
     }
 
+    /// Whether some action leads to another state. A world whose model lists no transition at
+    /// all is only self-loops (added for every pair without one): the robot can never move.
+    pub fn can_move(&self) -> bool {
+        (0..self.n_states).any(|s| {
+            (0..self.n_actions).any(|a| {
+                self.outcomes(self.sa(s, a))
+                    .any(|o| self.outcome_state[o] as usize != s)
+            })
+        })
+    }
+
     /// Range of outcome indices of the pair `sa`.
     #[inline(always)]
     pub fn outcomes(&self, sa: usize) -> std::ops::Range<usize> {

@@ -5,6 +5,7 @@
 //! seed `r % seeds` of configuration `r / seeds`. That global run index, with the master seed,
 //! fixes the run's random stream, so batching, sharding and resuming never change a result.
 
+use std::collections::HashMap;
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -17,6 +18,9 @@ use crate::env::{self, Spec};
 use crate::params::ConfigError;
 use crate::params::{Params, Profile, default_steps};
 use crate::schedule::{Event, Schedule};
+use crate::sizing::{Shrink, Size};
+
+use super::shard::Shard;
 
 /// Top-level keys and sections of a sweep file.
 pub const TOP_LEVEL: &[&str] = &["seeds", "master_seed", "fixed", "grid", "zip", "profiles"];
@@ -128,11 +132,14 @@ pub struct Sweep {
     /// Distinct schedules of changes (the first is the empty one), `json:` paths of their world
     /// events relative to the sweep file.
     pub schedules: Vec<Schedule>,
-    /// The canonical text of each of [`Sweep::schedules`] as the file wrote it (before paths were
-    /// resolved), to find a configuration's schedule.
-    schedule_texts: Vec<String>,
+    /// The index in [`Sweep::schedules`] of each schedule's canonical text as the file wrote it
+    /// (before paths were resolved), to find a configuration's schedule.
+    schedule_index: HashMap<String, usize>,
     sources: Vec<Source>,
     configurations: u64,
+    /// Legal inputs that are almost surely mistakes (a value listed twice), each with its
+    /// `file:line`, for the caller to show.
+    pub warnings: Vec<String>,
 }
 
 const PROFILE_NONE: usize = 0;
@@ -222,6 +229,15 @@ fn as_int(v: &DeValue<'_>) -> Option<i128> {
     }
 }
 
+/// A number as the file wrote it (`1e-320`, `0x10`), for messages.
+fn as_written(v: &DeValue<'_>) -> String {
+    match v {
+        DeValue::Integer(i) => i.as_str().to_string(),
+        DeValue::Float(f) => f.as_str().to_string(),
+        other => type_name(other).to_string(),
+    }
+}
+
 /// Entries of a table in file order.
 fn entries<'t, 'i>(
     table: &'t DeTable<'i>,
@@ -244,6 +260,10 @@ struct Parser<'a> {
     /// Axes with the position of their first key, to sort them into file order.
     axes: Vec<(usize, Axis)>,
     profiles: Vec<UserProfile>,
+    /// Task names already built (so known to exist).
+    tasks_built: Vec<String>,
+    /// Legal inputs that are almost surely mistakes, with `file:line`.
+    warnings: Vec<String>,
 }
 
 impl Parser<'_> {
@@ -365,9 +385,30 @@ impl Parser<'_> {
                     format!("the lists of {section} vary together and must have the same length: {lengths}"),
                 ));
             }
-            let values = (0..n)
+            let values: Vec<Vec<Value>> = (0..n)
                 .map(|i| columns.iter().map(|(c, _)| c[i].clone()).collect())
                 .collect();
+            let mut rows: HashMap<String, usize> = HashMap::new();
+            let mut warned: Vec<String> = Vec::new();
+            for row in &values {
+                let text = zkeys
+                    .iter()
+                    .zip(row)
+                    .map(|(k, v)| format!("{} = {v}", k.name()))
+                    .collect::<Vec<_>>()
+                    .join(", ");
+                let times = rows.entry(text.clone()).or_insert(0);
+                *times += 1;
+                if *times == 2 && !warned.contains(&text) {
+                    warned.push(text.clone());
+                    self.warnings.push(format!(
+                        "{}:{}: {section} lists the row ({text}) more than once: its \
+                         configurations run that many times (use 'seeds' for replicates)",
+                        self.src.file,
+                        self.src.line(first_span)
+                    ));
+                }
+            }
             self.axes.push((
                 first_span.start,
                 Axis {
@@ -466,28 +507,65 @@ impl Parser<'_> {
         Ok(())
     }
 
-    /// Configurations of `axes`, refused beyond 2^64 (and beyond 2^64 runs with `seeds`).
+    /// Configurations of `axes`: an axis without a value is refused (it would give an empty
+    /// dataset), and so are more runs (configurations x `seeds`) than the `i64` run index holds,
+    /// naming the sizes and the largest axis.
     fn configurations(&self, axes: &[Axis], seeds: u32) -> Result<u64, SweepError> {
-        let mut configurations: u64 = 1;
-        for axis in axes {
-            configurations = configurations
-                .checked_mul(axis.values.len() as u64)
-                .ok_or_else(|| {
-                    self.src.err(
-                        &(0..0),
-                        "grid",
-                        "the grid has more than 2^64 configurations".into(),
-                    )
-                })?;
-        }
-        if configurations.checked_mul(u64::from(seeds)).is_none() {
-            return Err(self.src.err(
-                &(0..0),
-                "seeds",
-                "configurations x seeds exceeds 2^64 runs".into(),
+        let line_of = |axis: &Axis| {
+            self.sources
+                .iter()
+                .find(|s| Some(&s.key) == axis.keys.first() && s.section == axis.section)
+                .map_or(1, |s| s.line)
+        };
+        let invalid = |axis: &Axis, key: &str, message: String| SweepError::Invalid {
+            file: self.src.file.to_string(),
+            line: line_of(axis),
+            key: key.to_string(),
+            message,
+        };
+        if let Some(axis) = axes.iter().find(|a| a.values.is_empty()) {
+            let name = axis.keys.first().map_or("grid", |k| k.name());
+            return Err(invalid(
+                axis,
+                name,
+                format!(
+                    "key '{name}' in {}: gives no value, so the sweep would have no \
+                     configuration; give at least one value",
+                    axis.section
+                ),
             ));
         }
-        Ok(configurations)
+        let configurations = axes
+            .iter()
+            .try_fold(1u64, |n, a| n.checked_mul(a.values.len() as u64));
+        let runs = configurations
+            .and_then(|c| c.checked_mul(u64::from(seeds)))
+            .filter(|r| i64::try_from(*r).is_ok());
+        match (configurations, runs) {
+            (Some(c), Some(_)) => Ok(c),
+            _ => {
+                let sizes: Vec<String> = axes.iter().map(|a| a.values.len().to_string()).collect();
+                let product: f64 = axes.iter().map(|a| a.values.len() as f64).product();
+                let largest = axes
+                    .iter()
+                    .max_by_key(|a| a.values.len())
+                    .expect("more runs than i64 needs an axis");
+                let name = largest.keys[0].name();
+                Err(invalid(
+                    largest,
+                    name,
+                    format!(
+                        "the axes give {} = {product:.3e} configurations, x {seeds} seeds = \
+                         {:.3e} runs: more than run indices hold (2^63 - 1); shrink key \
+                         '{name}' in {} ({} values) or another axis",
+                        sizes.join(" x "),
+                        product * f64::from(seeds),
+                        largest.section,
+                        largest.values.len()
+                    ),
+                ))
+            }
+        }
     }
 
     /// Records that `key` is set in `section`; a key may be set once across [fixed], [grid] and
@@ -604,8 +682,12 @@ impl Parser<'_> {
                     if path.is_empty() {
                         return Err(bad(self, "'json:' needs a path: json:PATH".into()));
                     }
-                } else if let Err(e) = env::load(s) {
-                    return Err(bad(self, e.to_string()));
+                } else if !self.tasks_built.iter().any(|t| t == s) {
+                    // Built once per name: a list may repeat a task many times.
+                    if let Err(e) = env::load(s) {
+                        return Err(bad(self, e.to_string()));
+                    }
+                    self.tasks_built.push(s.to_string());
                 }
                 Value::Text(s.to_string())
             }
@@ -649,10 +731,14 @@ impl Parser<'_> {
                         ),
                     ));
                 }
-                items
+                let values = items
                     .iter()
                     .map(|item| self.scalar(key, item, section))
-                    .collect::<Result<Vec<_>, _>>()?
+                    .collect::<Result<Vec<_>, _>>()?;
+                if section == "[grid]" {
+                    self.warn_repeats(key, section, items, &values);
+                }
+                values
             }
             DeValue::Table(table) => self.range(key, v.span(), table, section)?,
             _ => vec![self.scalar(key, v, section)?],
@@ -669,6 +755,41 @@ impl Parser<'_> {
             ));
         }
         Ok(values)
+    }
+
+    /// Warns once per value listed more than once on a `[grid]` axis: its configurations would
+    /// run twice (replicates are what `seeds` is for).
+    fn warn_repeats(
+        &mut self,
+        key: Key,
+        section: &str,
+        items: &[Spanned<DeValue<'_>>],
+        values: &[Value],
+    ) {
+        let mut count: HashMap<String, (usize, usize)> = HashMap::new();
+        for (i, v) in values.iter().enumerate() {
+            count.entry(v.to_string()).or_insert((i, 0)).1 += 1;
+        }
+        let mut repeated: Vec<(usize, usize)> = count.into_values().filter(|c| c.1 > 1).collect();
+        repeated.sort_unstable();
+        for (first, times) in repeated {
+            let item = &items[first];
+            let written = match item.get_ref() {
+                DeValue::String(text) => format!("\"{text}\""),
+                other => as_written(other),
+            };
+            let times = match times {
+                2 => "twice".to_string(),
+                n => format!("{n} times"),
+            };
+            self.warnings.push(format!(
+                "{}:{}: key '{}' in {section} lists {written} {times}: its configurations run \
+                 that many times (use 'seeds' for replicates)",
+                self.src.file,
+                self.src.line(&item.span()),
+                key.name()
+            ));
+        }
     }
 
     /// `{ from, to, steps }`, `{ from, to, steps, log = true }` or `{ from, to, by }`.
@@ -699,6 +820,8 @@ impl Parser<'_> {
         let mut to = None;
         let mut steps = None;
         let mut by = None;
+        // The numbers as written, for messages.
+        let mut written = [String::new(), String::new(), String::new()];
         let mut log = false;
         for (k, v) in entries(table) {
             let field = keys::normalise(k.get_ref());
@@ -717,9 +840,18 @@ impl Parser<'_> {
                     })
             };
             match field.as_str() {
-                "from" => from = Some(number()?),
-                "to" => to = Some(number()?),
-                "by" => by = Some((number()?, v.span())),
+                "from" => {
+                    from = Some(number()?);
+                    written[0] = as_written(v.get_ref());
+                }
+                "to" => {
+                    to = Some(number()?);
+                    written[1] = as_written(v.get_ref());
+                }
+                "by" => {
+                    by = Some((number()?, v.span()));
+                    written[2] = as_written(v.get_ref());
+                }
                 "steps" => {
                     let n = as_int(v.get_ref())
                         .filter(|n| *n >= 1 && (*n as u64) <= MAX_AXIS_VALUES)
@@ -790,17 +922,31 @@ impl Parser<'_> {
                     return Err(err(
                         self,
                         &sp,
-                        format!("'by = {by}' never goes from {from} to {to}"),
+                        format!(
+                            "'by = {}' never goes from {} to {}",
+                            written[2], written[0], written[1]
+                        ),
                     ));
                 }
-                let n = ((to - from) / by + 1e-9).floor() as u64 + 1;
-                if n > MAX_AXIS_VALUES {
+                // In f64 first: a tiny step (or a span beyond f64) is an infinite count, which
+                // must be refused, not wrapped to no value at all.
+                let count = ((to - from) / by + 1e-9).floor() + 1.0;
+                if count.is_nan() || count > MAX_AXIS_VALUES as f64 {
+                    let many = if count.is_finite() {
+                        format!("{count:.0} values")
+                    } else {
+                        "more values than a number holds".to_string()
+                    };
                     return Err(err(
                         self,
                         &sp,
-                        format!("this range has {n} values (at most {MAX_AXIS_VALUES})"),
+                        format!(
+                            "from {} to {} by {} gives {many} (at most {MAX_AXIS_VALUES}): use a larger 'by' or a smaller span",
+                            written[0], written[1], written[2]
+                        ),
                     ));
                 }
+                let n = count as u64;
                 (0..n).map(|i| from + by * i as f64).collect()
             }
             (Some(n), None) => {
@@ -973,6 +1119,8 @@ impl Sweep {
             fixed: Vec::new(),
             axes: Vec::new(),
             profiles: Vec::new(),
+            tasks_built: Vec::new(),
+            warnings: Vec::new(),
         };
         let mut seeds = 1u32;
         let mut master_seed = 1u64;
@@ -1040,6 +1188,7 @@ impl Sweep {
         );
         let tasks = tasks(&fixed, &axes, &profiles);
         let mut schedule_texts = vec![String::new()];
+        let mut schedule_index: HashMap<String, usize> = HashMap::from([(String::new(), 0)]);
         for (key, value) in fixed
             .iter()
             .map(|(k, v)| (*k, v))
@@ -1049,7 +1198,8 @@ impl Sweep {
                     .flat_map(move |row| a.keys.iter().copied().zip(row.iter()))
             }))
         {
-            if key == Key::Change && !schedule_texts.contains(&value.to_string()) {
+            if key == Key::Change && !schedule_index.contains_key(&value.to_string()) {
+                schedule_index.insert(value.to_string(), schedule_texts.len());
                 schedule_texts.push(value.to_string());
             }
         }
@@ -1088,9 +1238,10 @@ impl Sweep {
             tasks,
             profile_names,
             schedules,
-            schedule_texts,
+            schedule_index,
             sources: p.sources,
             configurations,
+            warnings: p.warnings,
         })
     }
 
@@ -1190,13 +1341,11 @@ impl Sweep {
             profile = PROFILE_CUSTOM;
         }
         let schedule = match set[Key::Change.index()] {
-            Some(v) => {
-                let text = v.to_string();
-                self.schedule_texts
-                    .iter()
-                    .position(|t| *t == text)
-                    .unwrap_or(0)
-            }
+            Some(v) => self
+                .schedule_index
+                .get(&v.to_string())
+                .copied()
+                .unwrap_or(0),
             None => 0,
         };
         Resolved {
@@ -1226,6 +1375,21 @@ impl Sweep {
             "the only configuration".into()
         } else {
             parts.join(", ")
+        }
+    }
+
+    /// Where `key` is set, for messages: `file:line: key 'task' in [grid]` (`file` alone when
+    /// the file does not set it).
+    pub fn place(&self, key: Key) -> String {
+        match self.source(key) {
+            Some(s) => format!(
+                "{}:{}: key '{}' in {}",
+                self.file,
+                s.line,
+                key.name(),
+                s.section
+            ),
+            None => self.file.clone(),
         }
     }
 
@@ -1275,38 +1439,250 @@ impl Sweep {
 
     /// Checks every configuration against its environment (e.g. interactions are refused on a
     /// `json:` task, SPEC 5), naming the first bad combination.
+    ///
+    /// Each value was checked alone when parsed; what is left are the keys that are checked
+    /// together ([`INDEPENDENT`] lists the others). Only the combinations of the axes that set
+    /// such keys are checked, the other axes at their first value: a configuration's result
+    /// does not depend on them, so the first bad combination found is the first bad
+    /// configuration, in a time that does not grow with those axes.
     pub fn check(&self, specs: &[Arc<Spec>]) -> Result<(), SweepError> {
-        for config in 0..self.configurations {
-            let r = self.resolve(config);
-            if let Err(e) =
-                crate::schedule::compile(&specs[r.task], &self.schedules[r.schedule], &r.params)
-            {
-                return Err(self.err_at_key(
-                    Key::Change,
-                    format!("configuration {config} ({}): {e}", self.describe(config)),
-                ));
-            }
-            if let Err(e) = r.params.validate_for(&specs[r.task]) {
-                // Not an exhaustive match, so a new error kind elsewhere does not break this.
-                let key = if let ConfigError::InvalidParam { name, .. } = &e {
-                    Key::lookup(name).unwrap_or(Key::Task)
-                } else if let ConfigError::ValueOverflow { because, .. } = &e {
-                    // Names the inputs that combine badly: point at the first one the file sets.
-                    Key::all()
-                        .find(|k| because.contains(k.name()) && self.source(*k).is_some())
-                        .unwrap_or(Key::Task)
-                } else if let ConfigError::InteractionUnsupported { .. } = &e {
-                    Key::INTERACTION
-                } else {
-                    Key::Task
-                };
-                let mut what = self.describe(config);
-                if !self.axes.iter().any(|a| a.keys.contains(&Key::Task)) {
-                    what += &format!(", task = {}", self.tasks[r.task]);
-                }
-                return Err(self.err_at_key(key, format!("configuration {config} ({what}): {e}")));
-            }
+        let interacting: Vec<Key> = Key::all().filter(|k| !INDEPENDENT.contains(k)).collect();
+        let p = self.projection(&interacting);
+        if p.combinations > MAX_CHECKED {
+            let largest = p
+                .axes
+                .iter()
+                .map(|&a| &self.axes[a])
+                .max_by_key(|a| a.values.len())
+                .expect("more than one combination needs an axis");
+            let names: Vec<&str> = p
+                .axes
+                .iter()
+                .flat_map(|&a| self.axes[a].keys.iter().map(|k| k.name()))
+                .collect();
+            return Err(self.err_at_key(
+                largest.keys[0],
+                format!(
+                    "the keys checked together ({}) take {} combinations; at most \
+                     {MAX_CHECKED} are checked before a sweep starts: shrink key '{}' ({} \
+                     values) or split the sweep into several files",
+                    names.join(", "),
+                    p.combinations,
+                    largest.keys[0].name(),
+                    largest.values.len()
+                ),
+            ));
+        }
+        for i in 0..p.combinations {
+            let config = self.representative(&p, i);
+            self.check_one(specs, config)?;
         }
         Ok(())
     }
+
+    fn check_one(&self, specs: &[Arc<Spec>], config: u64) -> Result<(), SweepError> {
+        let r = self.resolve(config);
+        if let Err(e) =
+            crate::schedule::compile(&specs[r.task], &self.schedules[r.schedule], &r.params)
+        {
+            return Err(self.err_at_key(
+                Key::Change,
+                format!("configuration {config} ({}): {e}", self.describe(config)),
+            ));
+        }
+        if let Err(e) = r.params.validate_for(&specs[r.task]) {
+            // Not an exhaustive match, so a new error kind elsewhere does not break this.
+            let key = if let ConfigError::InvalidParam { name, .. } = &e {
+                Key::lookup(name).unwrap_or(Key::Task)
+            } else if let ConfigError::ValueOverflow { because, .. } = &e {
+                // Names the inputs that combine badly: point at the first one the file sets.
+                Key::all()
+                    .find(|k| because.contains(k.name()) && self.source(*k).is_some())
+                    .unwrap_or(Key::Task)
+            } else if let ConfigError::InteractionUnsupported { .. } = &e {
+                Key::INTERACTION
+            } else {
+                Key::Task
+            };
+            let mut what = self.describe(config);
+            if !self.axes.iter().any(|a| a.keys.contains(&Key::Task)) {
+                what += &format!(", task = {}", self.tasks[r.task]);
+            }
+            return Err(self.err_at_key(key, format!("configuration {config} ({what}): {e}")));
+        }
+        Ok(())
+    }
+
+    /// The axes that set any of `keys` (directly, through a `[profiles.NAME]` that sets one, or
+    /// through the task for `steps`, whose default depends on it), and their combinations.
+    fn projection(&self, keys: &[Key]) -> Projection {
+        let mut keys = keys.to_vec();
+        if keys.contains(&Key::named("steps")) && !keys.contains(&Key::Task) {
+            keys.push(Key::Task);
+        }
+        let profile_sets = self
+            .profiles
+            .iter()
+            .any(|u| u.values.iter().any(|(k, _)| keys.contains(k)));
+        if profile_sets && !keys.contains(&Key::PROFILE) {
+            keys.push(Key::PROFILE);
+        }
+        let axes: Vec<usize> = (0..self.axes.len())
+            .filter(|&a| self.axes[a].keys.iter().any(|k| keys.contains(k)))
+            .collect();
+        let combinations = axes
+            .iter()
+            .map(|&a| self.axes[a].values.len() as u64)
+            .product();
+        Projection { axes, combinations }
+    }
+
+    /// The first configuration of combination `i` of `p` (every other axis at its first
+    /// value). Increasing `i` gives increasing configurations.
+    fn representative(&self, p: &Projection, i: u64) -> u64 {
+        let mut digits = vec![0u64; self.axes.len()];
+        let mut rem = i;
+        for &a in p.axes.iter().rev() {
+            let n = self.axes[a].values.len() as u64;
+            digits[a] = rem % n;
+            rem /= n;
+        }
+        let mut config = 0u64;
+        for (axis, d) in self.axes.iter().zip(digits) {
+            config = config * axis.values.len() as u64 + d;
+        }
+        config
+    }
+
+    /// Configurations of `shard` that stand for all of them as far as `keys` are concerned,
+    /// each with the number of configurations it stands for. A shard of at most `limit`
+    /// configurations is listed as it is; a larger one through the axes that set `keys`
+    /// (sampled evenly when they alone have more than `limit` combinations, and scaled to the
+    /// shard's share), then the weights are estimates.
+    pub fn representatives(&self, shard: Shard, keys: &[Key], limit: u64) -> Representatives {
+        let total = self.configurations;
+        let in_shard = shard.count_of(total);
+        if in_shard <= limit {
+            return Representatives {
+                configs: shard.configs(total).map(|c| (c, 1)).collect(),
+                exact: true,
+            };
+        }
+        let p = self.projection(keys);
+        let each = u128::from(total / p.combinations.max(1));
+        let samples = p.combinations.min(limit.max(1));
+        let mut configs = Vec::with_capacity(samples as usize);
+        for j in 0..u128::from(samples) {
+            let (combos, samples) = (u128::from(p.combinations), u128::from(samples));
+            let (lo, hi) = (j * combos / samples, (j + 1) * combos / samples);
+            let mut weight = (hi - lo) * each;
+            if shard != Shard::ALL {
+                weight = weight * u128::from(in_shard) / u128::from(total);
+            }
+            configs.push((self.representative(&p, lo as u64), weight));
+        }
+        Representatives {
+            configs,
+            exact: samples == p.combinations && shard == Shard::ALL,
+        }
+    }
+
+    /// The runs, agent-steps and series rows of `shard`, counted without enumerating a large
+    /// grid (see [`Sweep::representatives`]).
+    pub fn size(&self, shard: Shard) -> Size {
+        let keys = [
+            Key::Task,
+            Key::named("steps"),
+            Key::named("babbling"),
+            Key::named("checkpoint"),
+        ];
+        let reps = self.representatives(shard, &keys, SIZE_ENUMERATE_LIMIT);
+        let mut size = Size::default();
+        for &(config, weight) in &reps.configs {
+            size.add(
+                weight * u128::from(self.seeds),
+                &self.resolve(config).params,
+            );
+        }
+        if reps.exact {
+            // The run count is known exactly whatever was sampled.
+            size.runs = u128::from(shard.count_of(self.configurations)) * u128::from(self.seeds);
+        }
+        size.exact = reps.exact;
+        size
+    }
+
+    /// What shrinks the sweep, for the messages of [`crate::sizing`].
+    pub fn shrink(&self) -> Shrink {
+        let largest = self
+            .axes
+            .iter()
+            .max_by_key(|a| a.values.len())
+            .filter(|a| a.values.len() > 1)
+            .map(|a| {
+                format!(
+                    "key '{}' in {} ({} values), ",
+                    a.keys[0].name(),
+                    a.section,
+                    a.values.len()
+                )
+            })
+            .unwrap_or_default();
+        let runs = format!(
+            "shrink {largest}'seeds' ({}) or another axis of {}",
+            self.seeds, self.file
+        );
+        Shrink {
+            series: format!(
+                "raise key 'checkpoint' (0 writes no series rows) or lower 'steps', or {runs}"
+            ),
+            time: format!("{runs}, or split it into shards (--shard I/N)"),
+            runs,
+        }
+    }
+}
+
+/// Keys whose values are checked alone (each value as it is parsed) and that no check of a
+/// combination reads: a sweep's validation need not combine their axes with the others. A key
+/// missing here is checked in every combination, which is always correct.
+pub const INDEPENDENT: &[Key] = &[
+    Key::named("selection"),
+    Key::named("cost_model"),
+    Key::named("alpha_mf"),
+    Key::named("tau"),
+    Key::named("q_init"),
+    Key::named("window_n"),
+    Key::named("vi_epsilon"),
+    Key::named("vi_max_sweeps"),
+    Key::named("filter_alpha"),
+    Key::named("kappa_coeff"),
+    Key::named("normalise_entropy"),
+    Key::named("forget_prob"),
+    Key::named("babbling"),
+    Key::named("checkpoint"),
+    Key::named("reward_source"),
+];
+
+/// Most combinations of the keys checked together that validation goes through.
+pub const MAX_CHECKED: u64 = 1_000_000;
+
+/// Configurations resolved to size a sweep exactly; a larger shard is sized through its axes.
+const SIZE_ENUMERATE_LIMIT: u64 = 100_000;
+
+/// Axes of a sweep and their number of combinations.
+#[derive(Debug, Clone)]
+struct Projection {
+    /// Indices into [`Sweep::axes`], in file order.
+    axes: Vec<usize>,
+    /// Product of their lengths.
+    combinations: u64,
+}
+
+/// See [`Sweep::representatives`].
+#[derive(Debug, Clone)]
+pub struct Representatives {
+    /// Configurations, each with the number of configurations it stands for.
+    pub configs: Vec<(u64, u128)>,
+    /// Whether the weights are exact counts.
+    pub exact: bool,
 }

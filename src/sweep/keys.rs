@@ -26,7 +26,7 @@ impl Key {
     pub const INTERACTION: Key = Key::named("interaction");
 
     /// The key of the parameter named `name` (a field of the registry; checked at compile time).
-    const fn named(name: &str) -> Key {
+    pub const fn named(name: &str) -> Key {
         let mut i = 0;
         while i < PARAMS.len() {
             if PARAMS[i]

@@ -79,10 +79,10 @@ pub fn describe_plan(sweep: &Sweep, shard: Shard) -> String {
         lines.push(format!("  [profiles.{}] {}", p.name, values.join(", ")));
     }
     if shard != Shard::ALL {
-        let configs = shard.configs(sweep.configurations()).count() as u64;
+        let configs = shard.count_of(sweep.configurations());
         lines.push(format!(
             "  shard {shard}: {configs} configurations, {} runs",
-            configs * u64::from(sweep.seeds)
+            u128::from(configs) * u128::from(sweep.seeds)
         ));
     }
     lines.join("\n")

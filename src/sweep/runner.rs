@@ -385,47 +385,42 @@ pub fn execute(
     })
 }
 
-/// A rough duration of a sweep on this machine, from simulating a few sample runs.
-#[derive(Debug, Clone)]
-pub struct Estimate {
-    /// Estimated wall-clock seconds.
-    pub seconds: f64,
-    /// Worker threads assumed.
-    pub threads: usize,
-    /// Sample runs simulated.
-    pub samples: usize,
-    /// Seconds the samples took.
-    pub calibration_seconds: f64,
-    /// Agent-steps (babbling included) of the runs estimated.
-    pub agent_steps: u64,
-}
+pub use crate::sizing::{Estimate, human_duration};
 
-/// Longest sample simulated: longer runs are timed on their start and scaled.
-const SAMPLE_MAX_STEPS: u32 = 20_000;
-const SAMPLE_MAX_BABBLING: u32 = 1_000;
+/// Configurations resolved to estimate a shard: beyond this, a shard stands for them through
+/// the axes that set the cost of a run ([`Sweep::representatives`]).
+pub const ENUMERATE_LIMIT: u64 = 100_000;
 
-/// Estimates the time of the runs of `shard` by timing up to two sample runs of every (task,
+/// Estimates the time of the runs of `shard` by timing up to eight sample runs of every (task,
 /// controller) group, the factors that set a run's cost.
 pub fn estimate(sweep: &Sweep, specs: &[Arc<Spec>], shard: Shard) -> Result<Estimate, ConfigError> {
+    use super::keys::Key;
     struct Group {
         task: usize,
         controller: crate::params::Controller,
-        agent_steps: u64,
+        agent_steps: u128,
         configs: u64,
         samples: Vec<u64>,
     }
     /// Sample runs per group, spread evenly over the group's configurations.
     const SAMPLES: u64 = 8;
     let mut groups: Vec<Group> = Vec::new();
-    let seeds = u64::from(sweep.seeds);
+    let seeds = u128::from(sweep.seeds);
     let group_of = |groups: &[Group], r: &super::file::Resolved| {
         groups
             .iter()
             .position(|g| g.task == r.task && g.controller == r.params.controller)
     };
-    for config in shard.configs(sweep.configurations()) {
+    let keys = [
+        Key::Task,
+        Key::named("controller"),
+        Key::named("steps"),
+        Key::named("babbling"),
+    ];
+    let reps = sweep.representatives(shard, &keys, ENUMERATE_LIMIT);
+    for &(config, weight) in &reps.configs {
         let r = sweep.resolve(config);
-        let steps = seeds * (u64::from(r.params.babbling) + u64::from(r.params.steps));
+        let steps = weight * seeds * (u128::from(r.params.babbling) + u128::from(r.params.steps));
         match group_of(&groups, &r) {
             Some(g) => {
                 groups[g].agent_steps += steps;
@@ -442,7 +437,7 @@ pub fn estimate(sweep: &Sweep, specs: &[Arc<Spec>], shard: Shard) -> Result<Esti
     }
     // Second pass: the k-th of SAMPLES evenly spaced positions within each group.
     let mut seen = vec![0u64; groups.len()];
-    for config in shard.configs(sweep.configurations()) {
+    for &(config, _) in &reps.configs {
         let r = sweep.resolve(config);
         let Some(g) = group_of(&groups, &r) else {
             continue;
@@ -455,60 +450,21 @@ pub fn estimate(sweep: &Sweep, specs: &[Arc<Spec>], shard: Shard) -> Result<Esti
         }
         seen[g] += 1;
     }
-    let started = Instant::now();
-    let mut rates: Vec<Vec<f64>> = groups.iter().map(|_| Vec::new()).collect();
-    let mut samples = 0;
-    for (task, spec) in specs.iter().enumerate() {
-        let mut configs = Vec::new();
-        let mut owners = Vec::new();
-        for (gi, g) in groups.iter().enumerate().filter(|(_, g)| g.task == task) {
-            for &config in &g.samples {
-                let mut params = sweep.resolve(config).params;
-                params.steps = params.steps.min(SAMPLE_MAX_STEPS);
-                params.babbling = params.babbling.min(SAMPLE_MAX_BABBLING);
-                configs.push(RunConfig {
-                    params,
-                    seed: sweep.master_seed,
-                    run_index: config * seeds,
-                });
-                owners.push(gi);
-            }
-        }
-        if configs.is_empty() {
-            continue;
-        }
-        samples += configs.len();
-        let mut batch = Batch::new(Arc::clone(spec), configs)?;
-        batch.run_to_end();
-        for ((config, stats), gi) in batch.configs().iter().zip(batch.stats()).zip(owners) {
-            let steps = u64::from(config.params.babbling) + u64::from(config.params.steps);
-            rates[gi].push(stats.wall_time_s / steps.max(1) as f64);
-        }
-    }
-    let cpu: f64 = groups
+    let groups: Vec<crate::sizing::SampleGroup> = groups
         .iter()
-        .zip(&rates)
-        .map(|(g, r)| {
-            let rate = r.iter().sum::<f64>() / r.len().max(1) as f64;
-            rate * g.agent_steps as f64
+        .map(|g| crate::sizing::SampleGroup {
+            task: g.task,
+            samples: g
+                .samples
+                .iter()
+                .map(|&config| RunConfig {
+                    params: sweep.resolve(config).params,
+                    seed: sweep.master_seed,
+                    run_index: config * u64::from(sweep.seeds),
+                })
+                .collect(),
+            agent_steps: g.agent_steps,
         })
-        .sum();
-    let threads = rayon::current_num_threads().max(1);
-    Ok(Estimate {
-        seconds: cpu / threads as f64,
-        threads,
-        samples,
-        calibration_seconds: started.elapsed().as_secs_f64(),
-        agent_steps: groups.iter().map(|g| g.agent_steps).sum(),
-    })
-}
-
-/// A duration for people: `45 s`, `3 min 20 s`, `2 h 05 min`.
-pub fn human_duration(seconds: f64) -> String {
-    let s = seconds.max(0.0).round() as u64;
-    match s {
-        0..=59 => format!("{} s", s.max(1)),
-        60..=3599 => format!("{} min {:02} s", s / 60, s % 60),
-        _ => format!("{} h {:02} min", s / 3600, (s % 3600) / 60),
-    }
+        .collect();
+    crate::sizing::time(specs, &groups)
 }

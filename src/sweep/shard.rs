@@ -49,6 +49,16 @@ impl Shard {
         (u64::from(self.index)..total).step_by(self.count as usize)
     }
 
+    /// Number of configurations of this shard among `total`, counted without enumerating them.
+    pub fn count_of(&self, total: u64) -> u64 {
+        let (index, count) = (u64::from(self.index), u64::from(self.count));
+        if index >= total {
+            0
+        } else {
+            (total - index - 1) / count + 1
+        }
+    }
+
     /// A shard after checking `index < count`.
     pub fn new(index: u64, count: u64, hint: &str) -> Result<Shard, ShardError> {
         if count == 0 || index >= count {
@@ -164,6 +174,20 @@ impl fmt::Display for Shard {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn shard_sizes_are_counted_as_enumerated() {
+        for count in 1..6u32 {
+            for index in 0..count {
+                let shard = Shard { index, count };
+                for total in 0..20u64 {
+                    assert_eq!(shard.count_of(total), shard.configs(total).count() as u64);
+                }
+            }
+        }
+        let shard = Shard { index: 3, count: 7 };
+        assert_eq!(shard.count_of(u64::MAX), (u64::MAX - 4) / 7 + 1);
+    }
 
     fn env<'a>(pairs: &'a [(&'a str, &'a str)]) -> impl Fn(&str) -> Option<String> + 'a {
         move |name| {
