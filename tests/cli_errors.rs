@@ -853,6 +853,9 @@ fn analyses_refuse_mixed_foreign_and_unfinished_datasets_naming_the_file() {
     for sub in ["runs", "series"] {
         std::fs::remove_file(dir.join("sw").join(sub).join(&parts[3])).expect("remove a part");
     }
+    // A sweep killed before its first part: the sweep text alone.
+    std::fs::create_dir_all(dir.join("empty/runs")).expect("a folder");
+    std::fs::copy(dir.join("s.toml"), dir.join("empty/sweep.toml")).expect("copy");
     std::fs::create_dir_all(dir.join("loose/runs")).expect("a folder");
     std::fs::copy(
         dir.join("r/runs.parquet"),
@@ -897,6 +900,10 @@ fn analyses_refuse_mixed_foreign_and_unfinished_datasets_naming_the_file() {
             ],
         ),
         ("pareto {dir}/sw", &["{dir}/sw is incomplete: 3 of 4 runs"]),
+        (
+            "pareto {dir}/empty",
+            &["{dir}/empty is incomplete: 0 of an unknown number of runs are committed"],
+        ),
         (
             "min-budget {dir}/sw",
             &["{dir}/sw is incomplete: 3 of 4 runs"],

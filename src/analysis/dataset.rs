@@ -160,7 +160,7 @@ pub enum DatasetError {
         state: String,
         /// Runs committed.
         done: u64,
-        /// Runs of the whole sweep (`?` when no part records it yet).
+        /// Runs of the whole sweep (`an unknown number of` when no part records it yet).
         total: String,
         /// How to finish it, or to analyse it anyway.
         advice: String,
@@ -944,7 +944,7 @@ fn locate_sweep(
     if !committed.is_complete() {
         let total = committed
             .total
-            .map_or_else(|| "?".to_owned(), |t| t.to_string());
+            .map_or_else(|| "an unknown number of".to_owned(), |t| t.to_string());
         let state = if committed.writers.is_empty() {
             "incomplete".to_owned()
         } else {
