@@ -878,3 +878,430 @@ fn the_verbs_read_a_dataset_written_by_mbmf_sweep() {
     let stdout = run_ok(&["stats", d, "--by", "budget", "--where", "controller=mf"]);
     assert!(stdout.contains("Holm-corrected over 1 pair)"), "{stdout}");
 }
+
+// ---------------------------------------------------------------------------------------------
+// integrity: what a dataset committed, and only that
+
+/// A sweep of 12 runs (two controllers, two budgets, three seeds) into `root/name`, written in
+/// parts of `batch` runs; `master_seed` makes a different sweep of the same size.
+fn small_sweep(root: &Path, name: &str, batch: &str, master_seed: u32) -> std::path::PathBuf {
+    let file = root.join(format!("{name}.toml"));
+    std::fs::write(
+        &file,
+        format!(
+            "seeds = 3\nmaster_seed = {master_seed}\n[fixed]\ntask = \"tidy1\"\nsteps = 200\n\
+             babbling = 50\ninteraction = \"takeover\"\n[grid]\ncontroller = [\"mf\", \"ec\"]\n\
+             budget = [0, 5]\n"
+        ),
+    )
+    .unwrap();
+    let out = root.join(name);
+    run_ok(&[
+        "sweep",
+        file.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--batch-size",
+        batch,
+        "--quiet",
+    ]);
+    out
+}
+
+/// Runs mbmf; returns (exit code, stdout, stderr).
+fn run_any(args: &[&str]) -> (Option<i32>, String, String) {
+    let out = mbmf().args(args).output().expect("the binary runs");
+    (
+        out.status.code(),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+fn part_names(dir: &Path) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.starts_with("part-"))
+        .collect();
+    names.sort();
+    names
+}
+
+/// The three verbs' standard output on `d` (without figures), to compare datasets.
+fn verb_outputs(d: &str) -> [(String, String); 3] {
+    let verbs: [&[&str]; 3] = [
+        &["pareto", d, "--no-plot"],
+        &["min-budget", d],
+        &["stats", d, "--by", "budget", "--where", "controller=mf"],
+    ];
+    verbs.map(|args| {
+        let (code, stdout, stderr) = run_any(args);
+        assert_eq!(code, Some(0), "mbmf {}: {stderr}", args.join(" "));
+        (stdout, stderr)
+    })
+}
+
+#[test]
+fn stray_copies_in_a_sweep_are_left_out_with_a_warning_naming_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = small_sweep(dir.path(), "s", "3", 1);
+    let d = out.to_str().unwrap();
+    let before = verb_outputs(d);
+    for (_, stderr) in &before {
+        assert!(!stderr.contains("warning"), "a clean sweep warns: {stderr}");
+    }
+    let runs = out.join("runs");
+    let first = &part_names(&runs)[0];
+    let copy = runs.join(first.replace(".parquet", " (1).parquet"));
+    let other = runs.join("runs copy.parquet");
+    std::fs::copy(runs.join(first), &copy).unwrap();
+    std::fs::copy(runs.join(first), &other).unwrap();
+    std::fs::copy(
+        out.join("series").join(first),
+        out.join("series/copy.parquet"),
+    )
+    .unwrap();
+    let after = verb_outputs(d);
+    for ((stdout_before, _), (stdout_after, stderr)) in before.iter().zip(&after) {
+        assert_eq!(stdout_before, stdout_after, "the copies changed a result");
+        for f in [&copy, &other] {
+            assert!(
+                stderr.contains(&format!("warning: ignoring {}: not a part", f.display())),
+                "{stderr}"
+            );
+        }
+        assert!(stderr.contains("it is not counted"), "{stderr}");
+        assert!(!stderr.contains("series/copy.parquet"), "{stderr}");
+    }
+    assert!(
+        after[0].0.contains("12 runs in 4 configurations"),
+        "{}",
+        after[0].0
+    );
+    // mbmf plot reads the series too, and names the series copy once.
+    let (code, _, stderr) = run_any(&["plot", d, "--by", "controller"]);
+    assert_eq!(code, Some(0), "{stderr}");
+    assert_eq!(stderr.matches("series/copy.parquet").count(), 1, "{stderr}");
+}
+
+#[test]
+fn parts_of_another_schema_or_sweep_are_refused_naming_the_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = small_sweep(dir.path(), "s", "3", 1);
+    let d = out.to_str().unwrap();
+    let names = part_names(&out.join("runs"));
+
+    // A part of another sweep of the same size, under a part name of this one.
+    let other = small_sweep(dir.path(), "other", "12", 2);
+    let foreign = out.join("runs/part-000100-000111.parquet");
+    for sub in ["runs", "series"] {
+        let name = &part_names(&other.join(sub))[0];
+        std::fs::copy(
+            other.join(sub).join(name),
+            out.join(sub).join("part-000100-000111.parquet"),
+        )
+        .unwrap();
+    }
+    let e = run_usage_error(&["pareto", d, "--no-plot"]);
+    assert!(
+        e.contains(&foreign.display().to_string())
+            && e.contains("belongs to another sweep")
+            && e.contains("sweep.toml"),
+        "{e}"
+    );
+    // A Parquet file of some other tool, named like a part.
+    write_runs(&foreign, &stats_runs());
+    let e = run_usage_error(&["stats", d, "--by", "controller"]);
+    assert!(
+        e.contains(&foreign.display().to_string())
+            && e.contains("names no sweep size (mbmf_sweep_runs)"),
+        "{e}"
+    );
+    for sub in ["runs", "series"] {
+        std::fs::remove_file(out.join(sub).join("part-000100-000111.parquet")).unwrap();
+    }
+    // Two parts holding the same runs.
+    for sub in ["runs", "series"] {
+        std::fs::copy(
+            out.join(sub).join(&names[0]),
+            out.join(sub).join("part-000000-000099.parquet"),
+        )
+        .unwrap();
+    }
+    let e = run_usage_error(&["min-budget", d]);
+    assert!(
+        e.contains("part-000000-000099.parquet")
+            && e.contains(&format!("which {} holds too", names[0])),
+        "{e}"
+    );
+
+    // A folder of parts that no sweep vouches for: every file must be a runs table of mbmf.
+    let loose = dir.path().join("loose");
+    std::fs::create_dir_all(loose.join("runs")).unwrap();
+    std::fs::copy(
+        out.join("runs").join(&names[0]),
+        loose.join("runs/part-00000.parquet"),
+    )
+    .unwrap();
+    let l = loose.to_str().unwrap();
+    let (code, stdout, stderr) = run_any(&["pareto", l, "--no-plot"]);
+    assert_eq!(code, Some(0), "{stderr}");
+    assert!(stdout.contains("3 runs in 1 configurations"), "{stdout}");
+    assert!(
+        stderr.contains("is not a sweep dataset (no sweep.toml)")
+            && stderr.contains("cannot be checked"),
+        "{stderr}"
+    );
+    let series_part = loose.join("runs/part-00001.parquet");
+    std::fs::copy(out.join("series").join(&names[0]), &series_part).unwrap();
+    let e = run_usage_error(&["pareto", l]);
+    assert!(
+        e.contains(&format!(
+            "{} is a series table (mbmf_schema series/2), not a runs table",
+            series_part.display()
+        )),
+        "{e}"
+    );
+    std::fs::remove_file(&series_part).unwrap();
+    let pareto_file = loose.join("runs/part-00002.parquet");
+    run_ok(&[
+        "pareto",
+        l,
+        "--no-plot",
+        "--out",
+        dir.path().join("a").to_str().unwrap(),
+    ]);
+    std::fs::copy(dir.path().join("a/pareto.parquet"), &pareto_file).unwrap();
+    let e = run_usage_error(&["stats", l, "--by", "controller"]);
+    assert!(
+        e.contains(&format!(
+            "{}: its mbmf_schema is pareto/1, not a runs table; every file of a dataset folder \
+             must carry mbmf_schema runs/1 to runs/2",
+            pareto_file.display()
+        )),
+        "{e}"
+    );
+    write_runs(&pareto_file, &stats_runs());
+    let e = run_usage_error(&["stats", l, "--by", "controller"]);
+    assert!(
+        e.contains(&format!("{}: it has no mbmf_schema", pareto_file.display()))
+            && e.contains("give the file's own path to analyse it alone"),
+        "{e}"
+    );
+    // Alone, the same file is read (a table written by polars or pandas).
+    run_ok(&["stats", pareto_file.to_str().unwrap(), "--by", "controller"]);
+}
+
+#[test]
+fn an_incomplete_or_locked_sweep_is_refused_unless_allowed_saying_how_many_runs() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = small_sweep(dir.path(), "s", "3", 1);
+    let d = out.to_str().unwrap();
+    let complete = verb_outputs(d);
+
+    // A live writer: hold the lock of shard 1/1 as mbmf sweep does.
+    let lock_path = out.join(".lock-0-of-1");
+    let lock = std::fs::File::create(&lock_path).unwrap();
+    std::fs::write(&lock_path, "pid=4242 host=elsewhere shard=1/1\n").unwrap();
+    lock.try_lock().unwrap();
+    for args in [
+        &["pareto", d, "--no-plot"][..],
+        &["stats", d, "--by", "controller"][..],
+        &["min-budget", d][..],
+        &["plot", d, "--by", "controller"][..],
+    ] {
+        let e = run_usage_error(args);
+        assert!(
+            e.contains(&format!(
+                "{d} is still being written by pid 4242 on host elsewhere (lock file {})",
+                lock_path.display()
+            )) && e.contains("12 of 12 runs are committed")
+                && e.contains("--allow-incomplete"),
+            "{e}"
+        );
+    }
+    drop(lock);
+    // A stale lock (its holder is gone) is no writer.
+    assert!(lock_path.exists());
+    assert_eq!(verb_outputs(d)[0].0, complete[0].0);
+
+    // Runs missing: one part and its series part deleted, as a killed sweep leaves it.
+    let last = part_names(&out.join("runs")).pop().unwrap();
+    for sub in ["runs", "series"] {
+        std::fs::remove_file(out.join(sub).join(&last)).unwrap();
+    }
+    let e = run_usage_error(&["pareto", d, "--no-plot"]);
+    assert!(
+        e.contains(&format!("{d} is incomplete: 9 of 12 runs are committed"))
+            && e.contains(&format!("mbmf sweep {d}/sweep.toml --out {d} --resume"))
+            && e.contains("pass --allow-incomplete to analyse the runs present"),
+        "{e}"
+    );
+    let (code, stdout, stderr) = run_any(&["pareto", d, "--no-plot", "--allow-incomplete"]);
+    assert_eq!(code, Some(0), "{stderr}");
+    assert!(stdout.contains("9 runs in"), "{stdout}");
+    assert!(
+        stderr.contains(&format!(
+            "warning: {d} is incomplete: analysing the 9 of 12 runs committed so far"
+        )),
+        "{stderr}"
+    );
+    let (code, _, stderr) = run_any(&["plot", d, "--by", "controller", "--allow-incomplete"]);
+    assert_eq!(code, Some(0), "{stderr}");
+    assert_eq!(
+        stderr.matches("analysing the 9 of 12").count(),
+        1,
+        "{stderr}"
+    );
+}
+
+#[test]
+fn analyses_of_runs_refuse_a_series_table_and_point_at_the_runs() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = dir.path().join("run");
+    run_ok(&[
+        "run",
+        "--controller",
+        "mf,ec",
+        "--runs",
+        "2",
+        "--steps",
+        "200",
+        "--babbling",
+        "50",
+        "--quiet",
+        "--out",
+        run.to_str().unwrap(),
+    ]);
+    let series = run.join("series.parquet");
+    let s = series.to_str().unwrap();
+    for args in [
+        &["stats", s, "--by", "controller"][..],
+        &["pareto", s][..],
+        &["min-budget", s][..],
+    ] {
+        let e = run_usage_error(args);
+        assert!(
+            e.contains(&format!(
+                "{s} is a series table (mbmf_schema series/2), not a runs table"
+            )) && e.contains("one row per checkpoint")
+                && e.contains(&format!("give the dataset folder {}", run.display())),
+            "{e}"
+        );
+    }
+    let sweep = small_sweep(dir.path(), "s", "12", 1);
+    let folder = sweep.join("series");
+    let e = run_usage_error(&["stats", folder.to_str().unwrap(), "--by", "controller"]);
+    assert!(
+        e.contains(&format!(
+            "{} is the series folder of the sweep {} (one row per checkpoint), not a runs table",
+            folder.display(),
+            sweep.display()
+        )) && e.contains(&format!(
+            "give {} or {}/runs",
+            sweep.display(),
+            sweep.display()
+        )),
+        "{e}"
+    );
+    let part = folder.join(&part_names(&folder)[0]);
+    let e = run_usage_error(&["pareto", part.to_str().unwrap()]);
+    assert!(
+        e.contains("is a series table (mbmf_schema series/2)")
+            && e.contains(&format!("give the dataset folder {}", sweep.display())),
+        "{e}"
+    );
+    // The runs table itself reads, in both layouts.
+    run_ok(&[
+        "stats",
+        run.join("runs.parquet").to_str().unwrap(),
+        "--by",
+        "controller",
+    ]);
+    run_ok(&[
+        "stats",
+        sweep.join("runs").to_str().unwrap(),
+        "--by",
+        "controller",
+    ]);
+}
+
+#[test]
+fn pareto_gives_one_front_per_task_and_step_count() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("tasks.toml");
+    std::fs::write(
+        &file,
+        "seeds = 3\n[fixed]\nsteps = 200\nbabbling = 50\n[grid]\ntask = [\"tidy1\", \"tidy2\"]\n\
+         controller = [\"mf\", \"ec\", \"rnd\"]\n",
+    )
+    .unwrap();
+    let out = dir.path().join("tasks");
+    let d = out.to_str().unwrap();
+    run_ok(&["sweep", file.to_str().unwrap(), "--out", d, "--quiet"]);
+    let stdout = run_ok(&["pareto", d]);
+    assert!(
+        stdout.contains("18 runs in 2 groups of task, whose results cannot be compared")
+            && stdout.contains("--where task=VALUE"),
+        "{stdout}"
+    );
+    let table = dataset::read_parquet_file(&out.join("analysis/pareto.parquet")).unwrap();
+    assert_eq!(table.len(), 6);
+    let task = table.column("task").unwrap();
+    let front = bools(&table, "front");
+    let knees = bools(&table, "knee");
+    for t in ["tidy1", "tidy2"] {
+        assert!(
+            stdout.contains(&format!(", task={t}: 9 runs in 3 configurations;")),
+            "{stdout}"
+        );
+        assert!(out.join(format!("analysis/pareto-{t}.svg")).is_file());
+        // Each group's front is the front of that task alone.
+        let alone = dir.path().join(t);
+        let where_ = format!("task={t}");
+        let single = run_ok(&[
+            "pareto",
+            d,
+            "--where",
+            &where_,
+            "--no-plot",
+            "--out",
+            alone.to_str().unwrap(),
+        ]);
+        assert!(single.contains("9 runs in 3 configurations"), "{single}");
+        let reference = dataset::read_parquet_file(&alone.join("pareto.parquet")).unwrap();
+        let rows: Vec<usize> = (0..table.len())
+            .filter(|&i| task.value(i) == Value::Str(t.to_owned()))
+            .collect();
+        assert_eq!(rows.len(), 3);
+        let picked = |v: &[bool]| rows.iter().map(|&i| v[i]).collect::<Vec<bool>>();
+        assert_eq!(picked(&front), bools(&reference, "front"), "{t}");
+        assert_eq!(picked(&knees), bools(&reference, "knee"), "{t}");
+        let means = floats(&table, "total_reward_mean");
+        let picked_means: Vec<Option<f64>> = rows.iter().map(|&i| means[i]).collect();
+        assert_eq!(picked_means, floats(&reference, "total_reward_mean"), "{t}");
+    }
+    assert_eq!(
+        knees.iter().filter(|k| **k).count(),
+        2,
+        "one knee per group"
+    );
+    let json = run_ok(&["pareto", d, "--no-plot", "--json"]);
+    let report: serde_json::Value = serde_json::from_str(&json).unwrap();
+    let groups = report["groups"].as_array().unwrap();
+    assert_eq!(groups.len(), 2);
+    assert_eq!(groups[0]["group"]["task"], "tidy1");
+    assert_eq!(groups[1]["runs"], 9);
+    // Opposite objectives on one column would put every configuration on the front.
+    let e = run_usage_error(&[
+        "pareto",
+        d,
+        "--objectives",
+        "total_reward:max,cost_total:min,total_reward:min",
+    ]);
+    assert!(
+        e.contains("invalid --objectives total_reward:max,total_reward:min: opposite objectives"),
+        "{e}"
+    );
+}

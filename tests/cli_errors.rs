@@ -1071,3 +1071,172 @@ fn run_memory_does_not_grow_with_the_number_of_runs() {
         "peak {large} KiB for 1024 runs, {small} KiB for 256"
     );
 }
+
+/// Runs mbmf on `args` (no default `--out`), asserting exit code 0; returns stderr.
+fn mbmf_ok(args: &[&str]) -> String {
+    let output = Command::new(env!("CARGO_BIN_EXE_mbmf"))
+        .args(args)
+        .output()
+        .expect("the binary runs");
+    assert_eq!(output.status.code(), Some(0), "mbmf {args:?}: {output:?}");
+    String::from_utf8_lossy(&output.stderr).into_owned()
+}
+
+#[test]
+fn analyses_refuse_mixed_foreign_and_unfinished_datasets_naming_the_file() {
+    let fixtures = Fixtures::new();
+    let dir = fixtures.dir.path();
+    let d = |name: &str| dir.join(name).display().to_string();
+    let run = d("r");
+    mbmf_ok(&[
+        "run",
+        "--quiet",
+        "--controller",
+        "mf,ec",
+        "--runs",
+        "2",
+        "--steps",
+        "50",
+        "--babbling",
+        "5",
+        "--out",
+        &run,
+    ]);
+    // The series file of another run in an mbmf run folder: the pair would mix two runs.
+    let other = d("r2");
+    mbmf_ok(&[
+        "run",
+        "--quiet",
+        "--runs",
+        "2",
+        "--steps",
+        "50",
+        "--babbling",
+        "5",
+        "--out",
+        &other,
+    ]);
+    std::fs::create_dir_all(dir.join("mixed")).expect("a folder");
+    std::fs::copy(dir.join("r/runs.parquet"), dir.join("mixed/runs.parquet")).expect("copy");
+    std::fs::copy(
+        dir.join("r2/series.parquet"),
+        dir.join("mixed/series.parquet"),
+    )
+    .expect("copy");
+    std::fs::write(
+        dir.join("s.toml"),
+        "seeds = 2\n[fixed]\nsteps = 20\nbabbling = 5\n[grid]\ncontroller = [\"mf\", \"ec\"]\n",
+    )
+    .expect("write a sweep file");
+    let sweep = d("sw");
+    mbmf_ok(&[
+        "sweep",
+        &d("s.toml"),
+        "--out",
+        &sweep,
+        "--batch-size",
+        "1",
+        "--quiet",
+    ]);
+    let mut parts: Vec<_> = std::fs::read_dir(dir.join("sw/runs"))
+        .expect("the sweep's runs")
+        .map(|e| e.expect("an entry").file_name())
+        .collect();
+    parts.sort();
+    for sub in ["runs", "series"] {
+        std::fs::remove_file(dir.join("sw").join(sub).join(&parts[3])).expect("remove a part");
+    }
+    // A sweep killed before its first part: the sweep text alone.
+    std::fs::create_dir_all(dir.join("empty/runs")).expect("a folder");
+    std::fs::copy(dir.join("s.toml"), dir.join("empty/sweep.toml")).expect("copy");
+    std::fs::create_dir_all(dir.join("loose/runs")).expect("a folder");
+    std::fs::copy(
+        dir.join("r/runs.parquet"),
+        dir.join("loose/runs/part-00000.parquet"),
+    )
+    .expect("copy");
+    std::fs::copy(
+        dir.join("r/series.parquet"),
+        dir.join("loose/runs/part-00001.parquet"),
+    )
+    .expect("copy");
+    let series_table =
+        "{dir}/r/series.parquet is a series table (mbmf_schema series/2), not a runs table";
+    let cases: &[(&str, &[&str])] = &[
+        (
+            "stats {dir}/r/series.parquet --by controller",
+            &[
+                series_table,
+                "one row per checkpoint",
+                "give the dataset folder {dir}/r",
+            ],
+        ),
+        ("pareto {dir}/r/series.parquet", &[series_table]),
+        ("min-budget {dir}/r/series.parquet", &[series_table]),
+        (
+            "stats {dir}/sw/series --by controller",
+            &[
+                "{dir}/sw/series is the series folder of the sweep {dir}/sw",
+                "give {dir}/sw or {dir}/sw/runs",
+            ],
+        ),
+        (
+            "pareto {dir}/loose",
+            &["{dir}/loose/runs/part-00001.parquet is a series table (mbmf_schema series/2)"],
+        ),
+        (
+            "stats {dir}/sw --by controller",
+            &[
+                "{dir}/sw is incomplete: 3 of 4 runs are committed",
+                "--resume",
+                "pass --allow-incomplete to analyse the runs present",
+            ],
+        ),
+        ("pareto {dir}/sw", &["{dir}/sw is incomplete: 3 of 4 runs"]),
+        (
+            "pareto {dir}/empty",
+            &["{dir}/empty is incomplete: 0 of an unknown number of runs are committed"],
+        ),
+        (
+            "min-budget {dir}/sw",
+            &["{dir}/sw is incomplete: 3 of 4 runs"],
+        ),
+        (
+            "plot {dir}/sw --by controller",
+            &["{dir}/sw is incomplete: 3 of 4 runs"],
+        ),
+        (
+            "plot {dir}/mixed --by controller",
+            &[
+                "{dir}/mixed/series.parquet (mbmf_run_id",
+                "does not belong to {dir}/mixed/runs.parquet",
+                "come from different runs",
+            ],
+        ),
+        (
+            "pareto {dir}/r --objectives total_reward:max,total_reward:min",
+            &[
+                "invalid --objectives total_reward:max,total_reward:min",
+                "opposite objectives on one column put every configuration on the front",
+            ],
+        ),
+        (
+            "pareto {dir}/r --objectives cost_total:min,total_reward:max,cost_total:min",
+            &["invalid --objectives cost_total:min,cost_total:min: an objective listed twice"],
+        ),
+    ];
+    for (line, parts) in cases {
+        check(&fixtures, line, 2, parts);
+    }
+    let warned = mbmf_ok(&["stats", &sweep, "--by", "controller", "--allow-incomplete"]);
+    assert!(
+        warned.contains(&format!(
+            "warning: {sweep} is incomplete: analysing the 3 of 4 runs committed so far"
+        )),
+        "{warned}"
+    );
+    assert!(
+        !dir.join("sw/analysis").exists(),
+        "a refused analysis wrote files"
+    );
+}

@@ -11,7 +11,7 @@ use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::path::Path;
 
 use crate::analysis::AnalysisError;
-use crate::analysis::dataset::{self, Filter, RUN_IDENTITY, Table, Value};
+use crate::analysis::dataset::{self, Filter, RUN_IDENTITY, ReadOptions, Table, Value};
 use crate::plot::{LineChart, Series};
 
 /// The series column a curve shows.
@@ -163,8 +163,8 @@ pub fn schedule_steps(schedule: &str) -> Vec<u32> {
         .collect()
 }
 
-/// Reads the dataset at `path` and computes the curves of `metric` grouped by `by`, over the
-/// runs that pass `filters`.
+/// Reads the dataset at `path` (as `options` says) and computes the curves of `metric` grouped
+/// by `by`, over the runs that pass `filters`; also returns the reader's warnings, each once.
 ///
 /// # Errors
 /// A dataset that cannot be read, a missing or non-numeric column, a filter that matches
@@ -174,11 +174,18 @@ pub fn read_curves(
     by: &str,
     metric: CurveMetric,
     filters: &[Filter],
-) -> Result<Curves, AnalysisError> {
-    let runs = dataset::read_dataset(path, "runs")?;
-    let runs = Filter::apply_all(&runs, filters)?;
-    let series = dataset::read_dataset(path, "series")?;
-    curves_of(&runs, &series, by, metric)
+    options: &ReadOptions,
+) -> Result<(Curves, Vec<String>), AnalysisError> {
+    let runs = dataset::read_table(path, "runs", options)?;
+    let mut warnings = runs.warnings;
+    let selected = Filter::apply_all(&runs.table, filters)?;
+    let series = dataset::read_table(path, "series", options)?;
+    for w in series.warnings {
+        if !warnings.contains(&w) {
+            warnings.push(w);
+        }
+    }
+    Ok((curves_of(&selected, &series.table, by, metric)?, warnings))
 }
 
 /// [`read_curves`] on tables already read (and `runs` already filtered).

@@ -10,6 +10,7 @@
 //! same way, and a dataset whose files disagree on an integer's signedness reads as Int64.
 
 use crate::suggest::edit_distance;
+use crate::sweep::store::{self, RUNS_DIR, SERIES_DIR, SWEEP_FILE};
 use std::cmp::Ordering;
 use std::collections::BTreeSet;
 use std::fmt;
@@ -122,6 +123,66 @@ pub enum DatasetError {
         text: String,
         /// What is wrong and what would be accepted.
         reason: String,
+    },
+    /// A file or folder holds another table than the one asked for (a series table given to
+    /// an analysis of runs).
+    #[error("{path} is {found}, not a {expected} table; {hint}")]
+    WrongTable {
+        /// The file or folder.
+        path: PathBuf,
+        /// What it holds.
+        found: String,
+        /// The table asked for (`runs` or `series`).
+        expected: String,
+        /// What to give instead.
+        hint: String,
+    },
+    /// A file among a dataset's files that mbmf did not write as that table.
+    #[error(
+        "{path}: {found}; every file of a dataset folder must carry mbmf_schema {expected}{hint}"
+    )]
+    ForeignFile {
+        /// The file.
+        path: PathBuf,
+        /// What its metadata says.
+        found: String,
+        /// The schema versions accepted.
+        expected: String,
+        /// What to do.
+        hint: String,
+    },
+    /// A sweep that misses runs or is still being written.
+    #[error("{dir} is {state}: {done} of {total} runs are committed; {advice}")]
+    Incomplete {
+        /// The sweep's folder.
+        dir: PathBuf,
+        /// `incomplete`, or who is still writing it.
+        state: String,
+        /// Runs committed.
+        done: u64,
+        /// Runs of the whole sweep (`an unknown number of` when no part records it yet).
+        total: String,
+        /// How to finish it, or to analyse it anyway.
+        advice: String,
+    },
+    /// The parts of a sweep folder do not form one dataset (a run twice, a part of another
+    /// sweep, a runs part without its series part).
+    #[error(transparent)]
+    Store(#[from] crate::sweep::store::StoreError),
+    /// The runs and series files of an `mbmf run` folder come from different runs.
+    #[error(
+        "{series} (mbmf_run_id {series_id}) does not belong to {runs} (mbmf_run_id {runs_id}): \
+         the two files come from different runs; rerun mbmf run into this folder with --force"
+    )]
+    PairMismatch {
+        /// The runs file.
+        runs: PathBuf,
+        /// Its run id.
+        runs_id: String,
+        /// The series file.
+        series: PathBuf,
+        /// Its run id.
+        series_id: String,
     },
     /// Filtering left no rows.
     #[error(
@@ -443,6 +504,22 @@ impl Table {
         }
     }
 
+    /// The same table under another name (its source in messages).
+    pub fn renamed(mut self, source: impl Into<String>) -> Table {
+        self.source = source.into();
+        self
+    }
+
+    /// `tables` one after the other, as one table named `source`: every column of any table,
+    /// null in those that lack it.
+    pub fn stack(source: impl Into<String>, tables: &[Table]) -> Result<Table, DatasetError> {
+        let parts: Vec<(Table, PathBuf)> = tables
+            .iter()
+            .map(|t| (t.clone(), PathBuf::from(&t.source)))
+            .collect();
+        Table::concat(source.into(), &parts)
+    }
+
     /// What the table was read from (or computed by), for messages.
     pub fn source(&self) -> &str {
         &self.source
@@ -656,16 +733,27 @@ pub fn closest<'a>(name: &str, candidates: impl Iterator<Item = &'a str>) -> Opt
 
 /// Reads one Parquet file into a table.
 pub fn read_parquet_file(path: &Path) -> Result<Table, DatasetError> {
+    read_file(path).map(|(table, _)| table)
+}
+
+/// Reads one Parquet file into a table, with its `mbmf_schema` (e.g. `runs/2`) if it has one.
+fn read_file(path: &Path) -> Result<(Table, Option<String>), DatasetError> {
     let file = File::open(path).map_err(|source| DatasetError::Io {
         path: path.to_path_buf(),
         source,
     })?;
-    let reader = ParquetRecordBatchReaderBuilder::try_new(file)
-        .and_then(|b| b.build())
-        .map_err(|source| DatasetError::Parquet {
-            path: path.to_path_buf(),
-            source,
-        })?;
+    let parquet_err = |source| DatasetError::Parquet {
+        path: path.to_path_buf(),
+        source,
+    };
+    let builder = ParquetRecordBatchReaderBuilder::try_new(file).map_err(parquet_err)?;
+    let schema_version = builder
+        .metadata()
+        .file_metadata()
+        .key_value_metadata()
+        .and_then(|kv| kv.iter().find(|k| k.key == "mbmf_schema"))
+        .and_then(|k| k.value.clone());
+    let reader = builder.build().map_err(parquet_err)?;
     let arrow_err = |source| DatasetError::Arrow {
         path: path.to_path_buf(),
         source,
@@ -682,41 +770,295 @@ pub fn read_parquet_file(path: &Path) -> Result<Table, DatasetError> {
                 .push((field.name().clone(), field.data_type().to_string())),
         }
     }
-    Ok(table)
+    Ok((table, schema_version))
 }
 
-/// The files of table `name` (`runs` or `series`) at `path`: `path` itself if it is a file;
-/// else `path/NAME.parquet` (`mbmf run`); else `path/NAME/part-*.parquet` (`mbmf sweep`; any
-/// `*.parquet` there if none is named `part-*`); else the `part-*.parquet` files of `path` (the
-/// `NAME/` folder itself). Hidden files (temporary files of a writer still at work) are
-/// ignored; parts are read in name order.
-pub fn dataset_files(path: &Path, name: &str) -> Result<Vec<PathBuf>, DatasetError> {
+/// The newest version of table `name` this build writes (the `N` of `runs/N`).
+fn current_version(name: &str) -> u32 {
+    let schema = match name {
+        "series" => crate::output::provenance::SERIES_SCHEMA,
+        _ => crate::output::provenance::RUNS_SCHEMA,
+    };
+    schema
+        .rsplit_once('/')
+        .and_then(|(_, n)| n.parse().ok())
+        .unwrap_or(1)
+}
+
+/// Where the runs table of the dataset holding the series file or folder `path` is.
+fn runs_instead(path: &Path) -> String {
+    let parent = path.parent().filter(|p| !p.as_os_str().is_empty());
+    let dataset = match parent {
+        Some(p) if p.file_name().is_some_and(|n| n == SERIES_DIR) => p.parent(),
+        Some(p) if path.is_dir() && p.join(SWEEP_FILE).is_file() => Some(p),
+        other => other,
+    };
+    match dataset {
+        Some(d) => format!(
+            "give the dataset folder {} (or its runs table)",
+            d.display()
+        ),
+        None => "give the runs table (runs.parquet, or the dataset folder)".to_owned(),
+    }
+}
+
+/// Checks that `table`, read from `path` with metadata `schema`, is a version of table `name`
+/// that this build reads. A file without `mbmf_schema` (written by polars, pandas or an old
+/// mbmf) is accepted when `trusted` (given alone, or a part its sweep vouches for), and refused
+/// among the files of a folder; either way a series table is never read as runs.
+fn check_schema(
+    path: &Path,
+    schema: Option<&str>,
+    name: &str,
+    trusted: bool,
+    table: &Table,
+) -> Result<(), DatasetError> {
+    let current = current_version(name);
+    let expected = if current > 1 {
+        format!("{name}/1 to {name}/{current}")
+    } else {
+        format!("{name}/1")
+    };
+    let series_as_runs = |found: String| DatasetError::WrongTable {
+        path: path.to_path_buf(),
+        found,
+        expected: name.to_owned(),
+        hint: format!(
+            "the analysis reads the runs table (one row per run; a series table has one row per \
+             checkpoint, so each run would count many times): {}",
+            runs_instead(path)
+        ),
+    };
+    let Some(schema) = schema else {
+        if name == "runs" && table.has("step") && !table.has("total_reward") {
+            return Err(series_as_runs(
+                "a series table (it has a step column and no total_reward)".to_owned(),
+            ));
+        }
+        if trusted {
+            return Ok(());
+        }
+        return Err(DatasetError::ForeignFile {
+            path: path.to_path_buf(),
+            found: "it has no mbmf_schema, so mbmf did not write it as a table of this dataset"
+                .to_owned(),
+            expected,
+            hint: "; move it out of the folder, or give the file's own path to analyse it alone"
+                .to_owned(),
+        });
+    };
+    let (table_name, version) = schema.split_once('/').unwrap_or((schema, ""));
+    match version.parse::<u32>() {
+        Ok(v) if table_name == name && (1..=current).contains(&v) => Ok(()),
+        _ if name == "runs" && table_name == "series" => Err(series_as_runs(format!(
+            "a series table (mbmf_schema {schema})"
+        ))),
+        Ok(v) if table_name == name && v > current => Err(DatasetError::ForeignFile {
+            path: path.to_path_buf(),
+            found: format!("its mbmf_schema {schema} is newer than this mbmf reads"),
+            expected,
+            hint: ": read it with the mbmf that wrote it".to_owned(),
+        }),
+        _ => Err(DatasetError::ForeignFile {
+            path: path.to_path_buf(),
+            found: format!("its mbmf_schema is {schema}, not a {name} table"),
+            expected,
+            hint: String::new(),
+        }),
+    }
+}
+
+/// How [`read_table`] treats a sweep that is not finished.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct ReadOptions {
+    /// Read the runs a sweep has committed even when it misses some or is still being written
+    /// (with a warning); by default such a sweep is refused, so that a partial result is never
+    /// taken for the whole.
+    pub allow_incomplete: bool,
+}
+
+/// A table read by [`read_table`], and what the caller should tell the user about it.
+#[derive(Debug, Clone)]
+pub struct Read {
+    /// The table.
+    pub table: Table,
+    /// Files left out, an unfinished sweep read anyway: one sentence each.
+    pub warnings: Vec<String>,
+}
+
+/// The files of one table of a dataset, as [`locate`] finds them.
+struct Located {
+    files: Vec<PathBuf>,
+    /// Whether a file without `mbmf_schema` may be read (see [`check_schema`]).
+    trusted: bool,
+    source: String,
+    warnings: Vec<String>,
+}
+
+/// Whether `name` is a part name: `part-` and dash-separated digits (`part-000000-000255`,
+/// `part-00001`), then `.parquet`; a copy (`part-000000-000255 (1).parquet`) is not.
+fn is_part_name(name: &str) -> bool {
+    name.strip_prefix("part-")
+        .and_then(|n| n.strip_suffix(".parquet"))
+        .is_some_and(|n| {
+            n.split('-')
+                .all(|d| !d.is_empty() && d.bytes().all(|b| b.is_ascii_digit()))
+        })
+}
+
+fn ignored(file: &Path, why: &str) -> String {
+    format!("ignoring {}: {why}; it is not counted", file.display())
+}
+
+/// The sweep folder that `path` is, or whose `runs/` or `series/` folder it is.
+fn sweep_root(path: &Path) -> Option<PathBuf> {
+    if path.join(SWEEP_FILE).is_file() {
+        return Some(path.to_path_buf());
+    }
+    let parent = path.parent()?;
+    let sub = path.file_name()?;
+    ((sub == RUNS_DIR || sub == SERIES_DIR) && parent.join(SWEEP_FILE).is_file())
+        .then(|| parent.to_path_buf())
+}
+
+/// The committed parts of table `name` of the sweep folder `root` (given as `path`).
+fn locate_sweep(
+    path: &Path,
+    root: &Path,
+    name: &str,
+    options: &ReadOptions,
+) -> Result<Located, DatasetError> {
+    let committed = store::committed(root)?;
+    let table_dir = root.join(name);
+    let mut warnings: Vec<String> = committed
+        .strays
+        .iter()
+        .filter(|f| f.parent() == Some(table_dir.as_path()))
+        .map(|f| {
+            ignored(
+                f,
+                "not a part the sweep committed (its parts are named part-FIRST-LAST.parquet)",
+            )
+        })
+        .collect();
+    if !committed.is_complete() {
+        let total = committed
+            .total
+            .map_or_else(|| "an unknown number of".to_owned(), |t| t.to_string());
+        let state = if committed.writers.is_empty() {
+            "incomplete".to_owned()
+        } else {
+            format!("still being written by {}", committed.writers.join(", "))
+        };
+        if !options.allow_incomplete {
+            return Err(DatasetError::Incomplete {
+                dir: root.to_path_buf(),
+                state,
+                done: committed.done,
+                total,
+                advice: format!(
+                    "finish it (mbmf sweep {} --out {} --resume, or wait for the writer), or pass \
+                     --allow-incomplete to analyse the runs present",
+                    root.join(SWEEP_FILE).display(),
+                    root.display()
+                ),
+            });
+        }
+        warnings.push(format!(
+            "{} is {state}: analysing the {} of {total} runs committed so far (--allow-incomplete)",
+            root.display(),
+            committed.done
+        ));
+    }
+    let files: Vec<PathBuf> = committed.parts.iter().map(|p| table_dir.join(p)).collect();
+    let source = match files.len() {
+        1 => format!("{} (1 {name} file)", path.display()),
+        n => format!("{} ({n} {name} files)", path.display()),
+    };
+    Ok(Located {
+        files,
+        trusted: true,
+        source,
+        warnings,
+    })
+}
+
+/// The part files of `dir`, a folder that no sweep vouches for: those named `part-…` if any
+/// (copies warned about and left out), else every `.parquet` file (`any` only).
+fn loose_parts(
+    dir: &Path,
+    any: bool,
+    warnings: &mut Vec<String>,
+) -> Result<Vec<PathBuf>, DatasetError> {
+    let named = parquet_files(dir, |n| n.starts_with("part-"))?;
+    if named.is_empty() {
+        return if any {
+            parquet_files(dir, |_| true)
+        } else {
+            Ok(named)
+        };
+    }
+    let (parts, copies): (Vec<PathBuf>, Vec<PathBuf>) = named.into_iter().partition(|p| {
+        p.file_name()
+            .is_some_and(|n| is_part_name(&n.to_string_lossy()))
+    });
+    for copy in &copies {
+        warnings.push(ignored(
+            copy,
+            "its name is not a part name (part-NUMBERS.parquet), as a copy's would be",
+        ));
+    }
+    Ok(parts)
+}
+
+/// The files of table `name` at `path` (see [`read_table`]).
+fn locate(path: &Path, name: &str, options: &ReadOptions) -> Result<Located, DatasetError> {
     let not_found = |detail: String| DatasetError::NotFound {
         path: path.to_path_buf(),
         table: name.to_owned(),
         detail,
     };
     if path.is_file() {
-        return Ok(vec![path.to_path_buf()]);
+        return Ok(Located {
+            files: vec![path.to_path_buf()],
+            trusted: true,
+            source: path.display().to_string(),
+            warnings: Vec::new(),
+        });
     }
     if !path.is_dir() {
         return Err(not_found("no such file or folder".to_owned()));
     }
+    if let Some(root) = sweep_root(path) {
+        if name == RUNS_DIR && path.file_name().is_some_and(|n| n == SERIES_DIR) && root != path {
+            return Err(DatasetError::WrongTable {
+                path: path.to_path_buf(),
+                found: format!(
+                    "the series folder of the sweep {} (one row per checkpoint)",
+                    root.display()
+                ),
+                expected: name.to_owned(),
+                hint: format!(
+                    "the analysis reads the runs table (one row per run): give {} or {}",
+                    root.display(),
+                    root.join(RUNS_DIR).display()
+                ),
+            });
+        }
+        return locate_sweep(path, &root, name, options);
+    }
+    let mut warnings = Vec::new();
     let single = path.join(format!("{name}.parquet"));
     let folder = path.join(name);
     // Only `part-*` files when there are any: an analysis run on the `NAME/` folder itself
-    // writes its own results (pareto.parquet, ...) there, which are not runs.
+    // wrote its own results (pareto.parquet, ...) there in earlier versions, which are not runs.
     let parts = if folder.is_dir() {
-        let parts = parquet_files(&folder, |n| n.starts_with("part-"))?;
-        if parts.is_empty() {
-            parquet_files(&folder, |_| true)?
-        } else {
-            parts
-        }
+        loose_parts(&folder, true, &mut warnings)?
     } else {
         Vec::new()
     };
-    if single.is_file() {
+    let runs_file = path.join("runs.parquet");
+    if single.is_file() || (name == "series" && runs_file.is_file()) {
         if !parts.is_empty() {
             return Err(not_found(format!(
                 "it holds both {} and {} part files in {}; pass the one you mean",
@@ -725,14 +1067,56 @@ pub fn dataset_files(path: &Path, name: &str) -> Result<Vec<PathBuf>, DatasetErr
                 folder.display()
             )));
         }
-        return Ok(vec![single]);
+        // The series file of the last committed `mbmf run` (an interrupted commit keeps the
+        // previous one under a hidden name), and never one of another run.
+        let file = crate::output::atomic::committed_file(path, name);
+        if name == "series" {
+            let ids = (
+                crate::output::atomic::run_id(&runs_file),
+                crate::output::atomic::run_id(&file),
+            );
+            if let (Some(runs_id), Some(series_id)) = ids
+                && runs_id != series_id
+            {
+                return Err(DatasetError::PairMismatch {
+                    runs: runs_file,
+                    runs_id,
+                    series: file,
+                    series_id,
+                });
+            }
+        }
+        if file.is_file() {
+            return Ok(Located {
+                source: file.display().to_string(),
+                files: vec![file],
+                trusted: true,
+                warnings,
+            });
+        }
     }
+    let parts = if parts.is_empty() {
+        loose_parts(path, false, &mut warnings)?
+    } else {
+        parts
+    };
     if !parts.is_empty() {
-        return Ok(parts);
-    }
-    let own = parquet_files(path, |n| n.starts_with("part-"))?;
-    if !own.is_empty() {
-        return Ok(own);
+        warnings.push(format!(
+            "{} is not a sweep dataset (no {SWEEP_FILE}): reading its {} {name} part file(s) \
+             as given; whether runs are missing or repeated cannot be checked",
+            path.display(),
+            parts.len()
+        ));
+        let source = match parts.len() {
+            1 => format!("{} (1 {name} file)", path.display()),
+            n => format!("{} ({n} {name} files)", path.display()),
+        };
+        return Ok(Located {
+            files: parts,
+            trusted: false,
+            source,
+            warnings,
+        });
     }
     let mut entries: Vec<String> = std::fs::read_dir(path)
         .map_err(|source| DatasetError::Io {
@@ -780,21 +1164,34 @@ fn parquet_files(dir: &Path, keep: impl Fn(&str) -> bool) -> Result<Vec<PathBuf>
     Ok(files)
 }
 
-/// Reads table `name` (`runs` or `series`) of the dataset at `path` (see [`dataset_files`]).
-/// Files are concatenated; a column missing from some files is null there.
+/// Reads table `name` (`runs` or `series`) of the dataset at `path`: `path` itself if it is a
+/// file; a sweep folder (`DIR/sweep.toml`; or its `runs/` or `series/` folder): the parts its
+/// store committed, refusing parts that do not form one dataset and, unless
+/// [`ReadOptions::allow_incomplete`], a sweep missing runs or still being written; an `mbmf
+/// run` folder: `DIR/NAME.parquet` (the series file of the same run); else the `part-*.parquet`
+/// files of `DIR/NAME/` (any `*.parquet` there if none is named `part-*`) or of `DIR`. Hidden
+/// files (a writer's temporary files) are never read; files that only look like parts (copies)
+/// are left out with a warning. Every file must be a version of table `name`; a file without
+/// `mbmf_schema` is read only alone or as a part of its sweep. Files are concatenated in name
+/// order; a column missing from some files is null there.
+pub fn read_table(path: &Path, name: &str, options: &ReadOptions) -> Result<Read, DatasetError> {
+    let located = locate(path, name, options)?;
+    let mut parts = Vec::with_capacity(located.files.len());
+    for file in located.files {
+        let (table, schema) = read_file(&file)?;
+        check_schema(&file, schema.as_deref(), name, located.trusted, &table)?;
+        parts.push((table, file));
+    }
+    Ok(Read {
+        table: Table::concat(located.source, &parts)?,
+        warnings: located.warnings,
+    })
+}
+
+/// [`read_table`] with the default options (an unfinished sweep is refused); its warnings are
+/// dropped, for callers that read a dataset they have just written.
 pub fn read_dataset(path: &Path, name: &str) -> Result<Table, DatasetError> {
-    let files = dataset_files(path, name)?;
-    let single = path.join(format!("{name}.parquet"));
-    let source = match files.as_slice() {
-        [one] if path.is_file() || *one == single => one.display().to_string(),
-        [_] => format!("{} (1 {name} file)", path.display()),
-        many => format!("{} ({} {name} files)", path.display(), many.len()),
-    };
-    let parts = files
-        .into_iter()
-        .map(|file| Ok((read_parquet_file(&file)?, file)))
-        .collect::<Result<Vec<_>, DatasetError>>()?;
-    Table::concat(source, &parts)
+    read_table(path, name, &ReadOptions::default()).map(|r| r.table)
 }
 
 /// Reads the `runs` table of a dataset (see [`read_dataset`]).
@@ -820,7 +1217,7 @@ pub fn output_folder(path: &Path) -> PathBuf {
         .is_some_and(|n| n == "runs" || n == "series")
         && folder
             .parent()
-            .is_some_and(|p| p.join(crate::sweep::store::SWEEP_FILE).is_file());
+            .is_some_and(|p| p.join(SWEEP_FILE).is_file());
     let root = match folder.parent() {
         Some(p) if in_sweep => p.to_path_buf(),
         _ => folder,

@@ -28,6 +28,39 @@ pub fn default_objectives() -> Vec<Objective> {
         .collect()
 }
 
+/// The parameter columns whose values make results incomparable: a reward depends on the task
+/// and on how many steps a run had to collect it.
+pub const INCOMPARABLE: [&str; 2] = ["task", "steps"];
+
+/// One group of runs whose results can be compared: its values of the [`INCOMPARABLE`] columns
+/// that vary in the dataset, and its runs (named after the dataset and those values).
+pub type ComparableGroup = (Vec<(String, Value)>, Table);
+
+/// The runs of `table` split by the [`INCOMPARABLE`] columns that vary in it: one group per
+/// task and step count present, in ascending order; the whole table, with no values, when
+/// neither varies.
+pub fn comparable_groups(table: &Table) -> Result<Vec<ComparableGroup>, AnalysisError> {
+    let present: Vec<String> = INCOMPARABLE
+        .iter()
+        .filter(|c| table.has(c))
+        .map(|c| (*c).to_owned())
+        .collect();
+    let all: Vec<usize> = (0..table.len()).collect();
+    let keys = varying_columns(table, &present, &all);
+    if keys.is_empty() {
+        return Ok(vec![(Vec::new(), table.clone())]);
+    }
+    Ok(group_rows(table, &keys)?
+        .into_iter()
+        .map(|(values, rows)| {
+            let values: Vec<(String, Value)> = keys.iter().cloned().zip(values).collect();
+            let label: Vec<String> = values.iter().map(|(k, v)| format!("{k}={v}")).collect();
+            let source = format!("{}, {}", table.source(), label.join(", "));
+            (values, table.take(&rows).renamed(source))
+        })
+        .collect())
+}
+
 /// Runs grouped by configuration, with every numeric result averaged over each group.
 #[derive(Debug, Clone)]
 pub struct Configurations {
@@ -189,6 +222,20 @@ impl Front {
                 value: String::new(),
                 accepted: "give at least one NAME:max or NAME:min",
             });
+        }
+        for (i, a) in objectives.iter().enumerate() {
+            if let Some(b) = objectives[i + 1..].iter().find(|b| b.name == a.name) {
+                return Err(AnalysisError::InvalidArgument {
+                    name: "--objectives",
+                    value: format!("{a},{b}"),
+                    accepted: if a.direction == b.direction {
+                        "an objective listed twice; give each column once"
+                    } else {
+                        "opposite objectives on one column put every configuration on the \
+                         front; give each column once, with the direction that is better"
+                    },
+                });
+            }
         }
         let names: Vec<&str> = objectives.iter().map(|o| o.name.as_str()).collect();
         let configs = Configurations::from_runs(table, &names)?;

@@ -10,8 +10,8 @@ use clap::Args;
 use super::{Failure, runtime, usage};
 use crate::analysis::AnalysisError;
 use crate::analysis::compare::{self, Comparison};
-use crate::analysis::dataset::{self, Filter, Table};
-use crate::analysis::front::{DEFAULT_OBJECTIVES, Front};
+use crate::analysis::dataset::{self, Filter, Table, Value};
+use crate::analysis::front::{self, DEFAULT_OBJECTIVES, Front};
 use crate::analysis::min_budget::{self, DEFAULT_ALPHA, MinBudget};
 use crate::analysis::pareto::{Direction, Objective};
 use crate::plot::{self, ScatterChart};
@@ -25,6 +25,26 @@ pub struct Dataset {
     /// Keep only runs with COLUMN=VALUE (repeatable; every filter must hold).
     #[arg(long = "where", value_name = "COLUMN=VALUE", value_parser = Filter::parse)]
     pub filters: Vec<Filter>,
+    /// Analyse a sweep that misses runs or is still being written (refused by default, so that
+    /// part of a sweep is never taken for the whole); a warning says how many runs are present.
+    #[arg(long)]
+    pub allow_incomplete: bool,
+}
+
+impl Dataset {
+    /// How to read the dataset.
+    pub fn options(&self) -> dataset::ReadOptions {
+        dataset::ReadOptions {
+            allow_incomplete: self.allow_incomplete,
+        }
+    }
+}
+
+/// Prints the reader's warnings (files left out, an unfinished sweep read anyway) to stderr.
+pub fn warn(warnings: &[String]) {
+    for w in warnings {
+        eprintln!("warning: {w}");
+    }
 }
 
 /// `mbmf pareto`.
@@ -99,13 +119,22 @@ pub struct MinBudgetArgs {
     pub json: bool,
 }
 
-/// Reads the runs of `dir` and applies the filters.
-fn load(dir: &Path, filters: &[Filter]) -> Result<Table, Failure> {
-    let table = dataset::read_runs(dir).map_err(usage)?;
-    if table.is_empty() {
-        return Err(usage(anyhow!("{} holds no runs", table.source())));
+/// Reads the runs of the dataset, prints the reader's warnings and applies the filters.
+fn load(data: &Dataset) -> Result<Table, Failure> {
+    let read = dataset::read_table(&data.dir, "runs", &data.options()).map_err(usage)?;
+    warn(&read.warnings);
+    if read.table.is_empty() {
+        return Err(usage(anyhow!("{} holds no runs", read.table.source())));
     }
-    Filter::apply_all(&table, filters).map_err(usage)
+    Filter::apply_all(&read.table, &data.filters).map_err(usage)
+}
+
+/// The output folder of an analysis that writes files (`--out`, or `analysis/` beside the
+/// data), checked before any work, and the runs it analyses.
+fn load_for_output(data: &Dataset, out: Option<&Path>) -> Result<(PathBuf, Table), Failure> {
+    let folder = out.map_or_else(|| dataset::output_folder(&data.dir), Path::to_path_buf);
+    super::args::check_out_dir(&folder, "--out")?;
+    Ok((folder, load(data)?))
 }
 
 /// Writes `table` as Parquet into `folder/name`, atomically.
@@ -128,34 +157,137 @@ fn analysis_failure(e: AnalysisError) -> Failure {
     usage(e)
 }
 
-/// Runs `mbmf pareto`.
+/// Runs `mbmf pareto`: one front per task and step count in the data (rewards of different
+/// tasks or lengths cannot be compared), so a dataset of one task and length gives one front.
 pub fn pareto(args: &ParetoArgs) -> Result<(), Failure> {
-    let folder = args
-        .out
-        .clone()
-        .unwrap_or_else(|| dataset::output_folder(&args.data.dir));
-    super::args::check_out_dir(&folder, "--out")?;
-    let table = load(&args.data.dir, &args.data.filters)?;
-    let front = Front::compute(&table, &args.objectives).map_err(analysis_failure)?;
+    let (folder, table) = load_for_output(&args.data, args.out.as_deref())?;
+    let groups = front::comparable_groups(&table).map_err(analysis_failure)?;
+    let fronts: Vec<(&[(String, Value)], Front)> = groups
+        .iter()
+        .map(|(values, runs)| Ok((values.as_slice(), Front::compute(runs, &args.objectives)?)))
+        .collect::<Result<_, AnalysisError>>()
+        .map_err(analysis_failure)?;
+    let runs_of = |g: usize| groups[g].1.len();
     if !args.json {
-        print_front(&front, table.len());
+        if fronts.len() > 1 {
+            let keys: Vec<&str> = fronts[0].0.iter().map(|(k, _)| k.as_str()).collect();
+            outln!(
+                "{}: {} runs in {} groups of {}, whose results cannot be compared with each \
+                 other: one front per group (or keep one with --where {}=VALUE)",
+                table.source(),
+                table.len(),
+                fronts.len(),
+                keys.join(" and "),
+                keys[0]
+            );
+        }
+        for (g, (_, front)) in fronts.iter().enumerate() {
+            if fronts.len() > 1 {
+                outln!();
+            }
+            print_front(front, runs_of(g));
+        }
     }
-    let path = write_table(&front.to_table(), &folder, "pareto.parquet")?;
+    let path = if let [(_, front)] = fronts.as_slice() {
+        write_table(&front.to_table(), &folder, "pareto.parquet")?
+    } else {
+        let tables: Vec<Table> = fronts.iter().map(|(_, f)| f.to_table()).collect();
+        let all = Table::stack(format!("Pareto analysis of {}", table.source()), &tables)
+            .map_err(|e| runtime(anyhow!("internal error building pareto.parquet: {e}")))?;
+        write_table(&all, &folder, "pareto.parquet")?
+    };
     let mut written = vec![path];
     if !args.no_plot {
-        match front_chart(&front) {
-            Some(chart) => written
-                .extend(plot::scatter_chart(&chart, &folder.join("pareto")).map_err(runtime)?),
-            None => eprintln!("note: no figure: it needs two objectives with finite means"),
+        for (values, front) in &fronts {
+            let name = std::iter::once("pareto".to_owned())
+                .chain(values.iter().map(|(_, v)| file_safe(&v.to_string())))
+                .collect::<Vec<_>>()
+                .join("-");
+            let chart = front_chart(front).map(|mut chart| {
+                if !values.is_empty() {
+                    chart.title = format!("{}, {}", chart.title, group_label(values));
+                }
+                chart
+            });
+            match chart {
+                Some(chart) => written
+                    .extend(plot::scatter_chart(&chart, &folder.join(name)).map_err(runtime)?),
+                None => eprintln!("note: no figure: it needs two objectives with finite means"),
+            }
         }
     }
     let shown: Vec<String> = written.iter().map(|p| p.display().to_string()).collect();
     if args.json {
-        outln!("{}", front_json(&front, table.len(), &shown));
+        let json = match fronts.as_slice() {
+            [(_, front)] => front_json(front, table.len(), &shown),
+            _ => grouped_json(&fronts, &table, &shown, runs_of),
+        };
+        outln!("{json}");
     } else {
         outln!("wrote {}", shown.join(", "));
     }
     Ok(())
+}
+
+/// `task=tidy1, steps=200`.
+fn group_label(values: &[(String, Value)]) -> String {
+    let parts: Vec<String> = values.iter().map(|(k, v)| format!("{k}={v}")).collect();
+    parts.join(", ")
+}
+
+/// `text` with every character other than a letter, digit, `.` or `_` replaced by `_`, for a
+/// file name (a task may be `json:some/path.json`).
+fn file_safe(text: &str) -> String {
+    text.chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '.' || c == '_' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect()
+}
+
+/// The `--json` report of `mbmf pareto` over several groups: the one-front report of each
+/// group (without `verb` and `files`), with the group's values under `group`.
+fn grouped_json(
+    fronts: &[(&[(String, Value)], Front)],
+    table: &Table,
+    files: &[String],
+    runs_of: impl Fn(usize) -> usize,
+) -> serde_json::Value {
+    let groups: Vec<serde_json::Value> = fronts
+        .iter()
+        .enumerate()
+        .map(|(g, (values, front))| {
+            let mut report = front_json(front, runs_of(g), &[]);
+            if let Some(map) = report.as_object_mut() {
+                map.remove("verb");
+                map.remove("files");
+                let group: serde_json::Map<String, serde_json::Value> = values
+                    .iter()
+                    .map(|(k, v)| (k.clone(), serde_json::json!(v.to_string())))
+                    .collect();
+                map.insert("group".to_owned(), serde_json::Value::Object(group));
+            }
+            report
+        })
+        .collect();
+    let objectives: Vec<String> = fronts[0]
+        .1
+        .objectives
+        .iter()
+        .map(|o| o.to_string())
+        .collect();
+    serde_json::json!({
+        "verb": "pareto",
+        "source": table.source(),
+        "files": files,
+        "runs": table.len(),
+        "objectives": objectives,
+        "groups": groups,
+    })
 }
 
 /// The `--json` report of `mbmf pareto`: one row per front member, in the table's order.
@@ -307,7 +439,7 @@ fn front_chart(front: &Front) -> Option<ScatterChart> {
 
 /// Runs `mbmf stats`.
 pub fn stats(args: &StatsArgs) -> Result<(), Failure> {
-    let table = load(&args.data.dir, &args.data.filters)?;
+    let table = load(&args.data)?;
     let comparison = compare::compare(&table, &args.by, &args.metric).map_err(analysis_failure)?;
     if args.json {
         outln!("{}", comparison_json(&comparison));
@@ -447,12 +579,7 @@ fn print_comparison(c: &Comparison) {
 
 /// Runs `mbmf min-budget`.
 pub fn min_budget(args: &MinBudgetArgs) -> Result<(), Failure> {
-    let folder = args
-        .out
-        .clone()
-        .unwrap_or_else(|| dataset::output_folder(&args.data.dir));
-    super::args::check_out_dir(&folder, "--out")?;
-    let table = load(&args.data.dir, &args.data.filters)?;
+    let (folder, table) = load_for_output(&args.data, args.out.as_deref())?;
     let result =
         min_budget::min_budget(&table, &args.metric, args.alpha).map_err(analysis_failure)?;
     if !args.json {

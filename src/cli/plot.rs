@@ -37,7 +37,10 @@ pub struct PlotArgs {
 /// Runs `mbmf plot`: reads the curves, draws them, prints the files written.
 pub fn plot(args: &PlotArgs) -> Result<(), Failure> {
     let (dir, filters) = (&args.data.dir, &args.data.filters);
-    let curves = curves::read_curves(dir, &args.by, args.metric, filters).map_err(usage)?;
+    let (curves, warnings) =
+        curves::read_curves(dir, &args.by, args.metric, filters, &args.data.options())
+            .map_err(usage)?;
+    super::analysis::warn(&warnings);
     let folder = args
         .out
         .clone()

@@ -984,6 +984,177 @@ fn write_merged(
     Ok(())
 }
 
+/// What a reader finds committed in a sweep dataset folder, found without locking, writing or
+/// deleting anything (see [`committed`]).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Committed {
+    /// The committed parts, in name order: each name is a runs part and its series part.
+    pub parts: Vec<String>,
+    /// Files of `runs/` and `series/` that are neither committed parts nor a writer's own
+    /// temporary files or uncommitted series parts: copies (`part-… (1).parquet`), files put
+    /// there by hand. No reader should count them.
+    pub strays: Vec<PathBuf>,
+    /// Runs of the whole sweep, as its parts record (`mbmf_sweep_runs`); `None` before the first
+    /// part is committed.
+    pub total: Option<u64>,
+    /// Distinct runs in the committed parts.
+    pub done: u64,
+    /// The live writers of the folder, described for messages (pid, host, lock file).
+    pub writers: Vec<String>,
+}
+
+impl Committed {
+    /// Whether every run of the sweep is committed and no process is still writing.
+    pub fn is_complete(&self) -> bool {
+        self.writers.is_empty() && self.total.is_some_and(|t| self.done == t)
+    }
+}
+
+/// The values of `keys` in a Parquet file's key-value metadata, read from its footer only.
+fn footer_values<const N: usize>(
+    path: &Path,
+    keys: [&str; N],
+) -> Result<[Option<String>; N], String> {
+    let file = File::open(path).map_err(|e| e.to_string())?;
+    let builder = ParquetRecordBatchReaderBuilder::try_new(file).map_err(|e| e.to_string())?;
+    let kv = builder.metadata().file_metadata().key_value_metadata();
+    Ok(keys.map(|key| {
+        kv.and_then(|kv| kv.iter().find(|k| k.key == key))
+            .and_then(|k| k.value.clone())
+    }))
+}
+
+/// Lists what the sweep dataset `dir` has committed, the way [`scan`] counts it for `--resume`
+/// (a part counts once its runs part and its series part both exist under their final names),
+/// and checks that the parts form one dataset: every part records the same sweep (the digest of
+/// `DIR/sweep.toml`) and size, and no run is held twice or lies outside the sweep. Unlike
+/// [`scan`], parts of another mbmf version are accepted (an old dataset stays readable), and a
+/// live writer is reported rather than refused. Lock files are probed with a shared lock held
+/// only for the probe.
+pub fn committed(dir: &Path) -> Result<Committed, StoreError> {
+    let sweep_file = dir.join(SWEEP_FILE);
+    let text = fs::read(&sweep_file).map_err(io("read", &sweep_file))?;
+    let digest = output::provenance::sha256_hex(&text);
+    let mut writers = Vec::new();
+    for name in list(dir)? {
+        if !name.starts_with(".lock-") {
+            continue;
+        }
+        let path = dir.join(&name);
+        let Ok(mut f) = File::open(&path) else {
+            continue;
+        };
+        if let Err(fs::TryLockError::WouldBlock) = f.try_lock_shared() {
+            let mut content = String::new();
+            let _ = f.read_to_string(&mut content);
+            writers.push(format!(
+                "{} (lock file {})",
+                describe_holder(&content),
+                path.display()
+            ));
+        }
+    }
+    let names_in = |sub: &str| -> Result<Vec<String>, StoreError> {
+        let path = dir.join(sub);
+        if path.is_dir() {
+            list(&path)
+        } else {
+            Ok(Vec::new())
+        }
+    };
+    let runs_names = names_in(RUNS_DIR)?;
+    let series_names = names_in(SERIES_DIR)?;
+    let mut strays = Vec::new();
+    for (sub, names) in [(RUNS_DIR, &runs_names), (SERIES_DIR, &series_names)] {
+        for name in names {
+            if !name.starts_with('.') && part_first(name).is_none() {
+                strays.push(dir.join(sub).join(name));
+            }
+        }
+    }
+    let mut parts = Vec::new();
+    let mut total: Option<u64> = None;
+    let mut holder: Vec<(u64, usize)> = Vec::new();
+    for name in &runs_names {
+        if !matches!(part_first(name), Some((_, true))) {
+            continue;
+        }
+        let path = dir.join(RUNS_DIR).join(name);
+        if !series_names.contains(name) {
+            return Err(StoreError::BadPart {
+                path,
+                reason: format!(
+                    "has no matching {SERIES_DIR}/{name} (was it deleted?): its runs cannot be \
+                     read as one dataset with their series"
+                ),
+            });
+        }
+        let bad = |reason: String| StoreError::BadPart {
+            path: path.clone(),
+            reason,
+        };
+        let unreadable = |e: String| bad(format!("cannot be read ({e})"));
+        let [size, sha] =
+            footer_values(&path, ["mbmf_sweep_runs", "mbmf_sweep_sha256"]).map_err(unreadable)?;
+        let Some(size) = size.and_then(|s| s.parse::<u64>().ok()) else {
+            return Err(bad(format!(
+                "names no sweep size (mbmf_sweep_runs): not a part written by mbmf sweep; move \
+                 it out of {}",
+                dir.join(RUNS_DIR).display()
+            )));
+        };
+        if sha.as_deref() != Some(digest.as_str()) {
+            let what = match sha {
+                Some(_) => "belongs to another sweep: its sweep digest (mbmf_sweep_sha256) is not",
+                None => "records no sweep digest (mbmf_sweep_sha256), so it cannot be shown to be",
+            };
+            return Err(bad(format!(
+                "{what} that of {}; move it out of {}",
+                sweep_file.display(),
+                dir.join(RUNS_DIR).display()
+            )));
+        }
+        match total {
+            Some(t) if t != size => {
+                return Err(bad(format!(
+                    "records a sweep of {size} runs, the earlier parts {t}: not one dataset"
+                )));
+            }
+            _ => total = Some(size),
+        }
+        let (runs, _) = read_runs_part(&path).map_err(unreadable)?;
+        for run in runs {
+            if run >= size {
+                return Err(bad(format!(
+                    "holds run {run}, but this sweep has {size} runs: not a part of this sweep"
+                )));
+            }
+            holder.push((run, parts.len()));
+        }
+        parts.push(name.clone());
+    }
+    holder.sort_unstable();
+    for pair in holder.windows(2) {
+        if pair[0].0 == pair[1].0 {
+            let (run, a, b) = (pair[0].0, &parts[pair[0].1], &parts[pair[1].1]);
+            return Err(StoreError::BadPart {
+                path: dir.join(RUNS_DIR).join(b),
+                reason: format!(
+                    "holds run {run}, which {a} holds too: the same run would be counted twice; \
+                     delete one of the two parts (with its series part) and resume"
+                ),
+            });
+        }
+    }
+    Ok(Committed {
+        parts,
+        strays,
+        total,
+        done: holder.len() as u64,
+        writers,
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
