@@ -64,26 +64,42 @@ pub(super) fn run_until(
     let human = run.plan.is_some()
         || params.human.interaction != Interaction::None
         || params.reward_source != RewardSource::Environment;
+    // The tidy tasks' 7 actions get their own copy, whose rows have a length known at compile
+    // time (loops unrolled, no remainder handling); other action counts share a generic one.
+    if spec.n_actions == 7 {
+        by_kind::<7>(spec, params, window_cap, run, end, human);
+    } else {
+        by_kind::<0>(spec, params, window_cap, run, end, human);
+    }
+}
+
+/// [`run_until`] for `NA` actions (0: read from the spec): the controller and human mode.
+#[inline(always)]
+fn by_kind<const NA: usize>(
+    spec: &Spec,
+    params: &Params,
+    window_cap: usize,
+    run: &mut RunView<'_>,
+    end: u64,
+    human: bool,
+) {
+    let (p, w) = (params, window_cap);
     match (params.controller, human) {
-        (Controller::Mf, false) => run_loop::<MF, false>(spec, params, window_cap, run, end),
-        (Controller::Mf, true) => run_loop::<MF, true>(spec, params, window_cap, run, end),
-        (Controller::Mb, false) => run_loop::<MB, false>(spec, params, window_cap, run, end),
-        (Controller::Mb, true) => run_loop::<MB, true>(spec, params, window_cap, run, end),
-        (Controller::Rnd, false) => run_loop::<RND, false>(spec, params, window_cap, run, end),
-        (Controller::Rnd, true) => run_loop::<RND, true>(spec, params, window_cap, run, end),
-        (Controller::Ec, false) => run_loop::<EC, false>(spec, params, window_cap, run, end),
-        (Controller::Ec, true) => run_loop::<EC, true>(spec, params, window_cap, run, end),
-        (Controller::Entropy, false) => {
-            run_loop::<ENTROPY, false>(spec, params, window_cap, run, end)
-        }
-        (Controller::Entropy, true) => {
-            run_loop::<ENTROPY, true>(spec, params, window_cap, run, end)
-        }
+        (Controller::Mf, false) => run_loop::<MF, false, NA>(spec, p, w, run, end),
+        (Controller::Mf, true) => run_loop::<MF, true, NA>(spec, p, w, run, end),
+        (Controller::Mb, false) => run_loop::<MB, false, NA>(spec, p, w, run, end),
+        (Controller::Mb, true) => run_loop::<MB, true, NA>(spec, p, w, run, end),
+        (Controller::Rnd, false) => run_loop::<RND, false, NA>(spec, p, w, run, end),
+        (Controller::Rnd, true) => run_loop::<RND, true, NA>(spec, p, w, run, end),
+        (Controller::Ec, false) => run_loop::<EC, false, NA>(spec, p, w, run, end),
+        (Controller::Ec, true) => run_loop::<EC, true, NA>(spec, p, w, run, end),
+        (Controller::Entropy, false) => run_loop::<ENTROPY, false, NA>(spec, p, w, run, end),
+        (Controller::Entropy, true) => run_loop::<ENTROPY, true, NA>(spec, p, w, run, end),
     }
 }
 
 /// [`run_until`] for one controller kind and human mode.
-fn run_loop<const KIND: u8, const HUMAN: bool>(
+fn run_loop<const KIND: u8, const HUMAN: bool, const NA: usize>(
     spec: &Spec,
     params: &Params,
     window_cap: usize,
@@ -95,7 +111,7 @@ fn run_loop<const KIND: u8, const HUMAN: bool>(
     let babble_end = end.min(babbling);
     if run.cursor.t < babble_end {
         while run.cursor.t < babble_end {
-            one_step::<KIND, HUMAN, true>(spec, params, window_cap, run, 0);
+            one_step::<KIND, HUMAN, NA, true>(spec, params, window_cap, run, 0);
         }
         if run.cursor.t == babbling {
             // End of babbling: back to the start; a pending reset step is dropped (SPEC 7).
@@ -119,12 +135,19 @@ fn run_loop<const KIND: u8, const HUMAN: bool>(
     let mut row_at = next_row(t_exp);
     while run.cursor.t < end {
         t_exp += 1;
-        one_step::<KIND, HUMAN, false>(spec, params, window_cap, run, t_exp);
+        one_step::<KIND, HUMAN, NA, false>(spec, params, window_cap, run, t_exp);
         if t_exp == row_at {
             record_checkpoint(run, t_exp);
             row_at = next_row(t_exp);
         }
     }
+}
+
+/// The number of actions: `NA` when the step was compiled for it, else the spec's.
+#[inline(always)]
+fn actions<const NA: usize>(spec: &Spec) -> usize {
+    debug_assert!(NA == 0 || NA == spec.n_actions);
+    if NA > 0 { NA } else { spec.n_actions }
 }
 
 /// The world the run is in now: the batch's, or its plan's current one.
@@ -136,7 +159,7 @@ fn world<'s>(spec: &'s Spec, run: &RunView<'s>) -> &'s Spec {
 
 /// One step (SPEC 3.4) at experiment step `t_exp` (0 while babbling).
 #[inline(always)]
-fn one_step<const KIND: u8, const HUMAN: bool, const BABBLING: bool>(
+fn one_step<const KIND: u8, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
     spec: &Spec,
     params: &Params,
     window_cap: usize,
@@ -160,13 +183,13 @@ fn one_step<const KIND: u8, const HUMAN: bool, const BABBLING: bool>(
         run.cursor.pending_reset = false;
         run.cursor.state = initial_state(spec, run.rng);
     } else {
-        act::<KIND, HUMAN, BABBLING>(spec, params, window_cap, run, s, t_exp);
+        act::<KIND, HUMAN, NA, BABBLING>(spec, params, window_cap, run, s, t_exp);
     }
 }
 
 /// Steps 2 to 8 of SPEC 3.4 in a non-goal state.
 #[inline(always)]
-fn act<const KIND: u8, const HUMAN: bool, const BABBLING: bool>(
+fn act<const KIND: u8, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
     spec: &Spec,
     params: &Params,
     window_cap: usize,
@@ -176,7 +199,7 @@ fn act<const KIND: u8, const HUMAN: bool, const BABBLING: bool>(
 ) {
     let babbling = BABBLING;
     let controller = controller(KIND);
-    let n_a = spec.n_actions;
+    let n_a = actions::<NA>(spec);
     let human = run.cursor.human;
     let human = &human;
     let human_active = HUMAN && !babbling && run.cursor.budget_left > 0;
@@ -199,7 +222,7 @@ fn act<const KIND: u8, const HUMAN: bool, const BABBLING: bool>(
     };
     let a = match action {
         Some(a) => a,
-        None => decide::<KIND, HUMAN, BABBLING>(spec, params, run, s),
+        None => decide::<KIND, HUMAN, NA, BABBLING>(spec, params, run, s),
     };
 
     // 6. Environment.
@@ -314,14 +337,14 @@ fn act<const KIND: u8, const HUMAN: bool, const BABBLING: bool>(
 /// Steps 3 to 5 of SPEC 3.4: the MC chooses, experts infer and compute their softmax, and the
 /// action is drawn from the chosen expert's distribution.
 #[inline(always)]
-fn decide<const KIND: u8, const HUMAN: bool, const BABBLING: bool>(
+fn decide<const KIND: u8, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
     spec: &Spec,
     params: &Params,
     run: &mut RunView<'_>,
     s: usize,
 ) -> usize {
     let babbling = BABBLING;
-    let n_a = spec.n_actions;
+    let n_a = actions::<NA>(spec);
     let row = s * n_a..(s + 1) * n_a;
     let controller = controller(KIND);
 
