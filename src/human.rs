@@ -25,6 +25,27 @@ pub fn attentive(human: &HumanParams, rng: &mut Xoshiro256PlusPlus) -> bool {
     uniform(rng) >= human.forget_prob
 }
 
+/// An opportunity to interact: one draw; an attentive human is counted by `given` and spends one
+/// unit of budget (true), an inattentive one counts a forgotten opportunity (false).
+#[inline(always)]
+fn attend(
+    human: &HumanParams,
+    budget_left: &mut u32,
+    stats: &mut RunStats,
+    t_exp: u32,
+    rng: &mut Xoshiro256PlusPlus,
+    given: impl FnOnce(&mut RunStats),
+) -> bool {
+    if attentive(human, rng) {
+        given(stats);
+        spend_budget(budget_left, stats, t_exp);
+        true
+    } else {
+        stats.forgotten += 1;
+        false
+    }
+}
+
 /// Item 2 of SPEC 3.4 in state `s`: the human's put when an attentive takeover human with
 /// budget left takes over from the robot, else `None`. `active` says whether the human may act at
 /// all this step (after babbling, budget left). Counts takeovers and forgotten opportunities.
@@ -46,14 +67,7 @@ pub fn takeover(
     if put == NO_TAKEOVER {
         return None;
     }
-    if attentive(human, rng) {
-        stats.takeovers += 1;
-        spend_budget(budget_left, stats, t_exp);
-        Some(put as usize)
-    } else {
-        stats.forgotten += 1;
-        None
-    }
+    attend(human, budget_left, stats, t_exp, rng, |s| s.takeovers += 1).then_some(put as usize)
 }
 
 /// Item 7 of SPEC 3.4 for the executed pair `sa`: G(s, a) of Eq. 8, 1 when an attentive human
@@ -81,18 +95,15 @@ pub fn feedback(
     if !opportunity {
         return 0;
     }
-    if attentive(human, rng) {
-        if human.interaction == Interaction::Congratulation {
-            stats.congratulations += 1;
+    let congratulation = human.interaction == Interaction::Congratulation;
+    let given = attend(human, budget_left, stats, t_exp, rng, |s| {
+        if congratulation {
+            s.congratulations += 1;
         } else {
-            stats.punishments += 1;
+            s.punishments += 1;
         }
-        spend_budget(budget_left, stats, t_exp);
-        1
-    } else {
-        stats.forgotten += 1;
-        0
-    }
+    });
+    if given { 1 } else { 0 }
 }
 
 /// SPEC 11.2 after the robot's relevant action `sa`: the state an attentive nuisance human with
@@ -117,14 +128,7 @@ pub fn nuisance(
     if !tables.relevant[sa] || undone == NO_NUISANCE {
         return None;
     }
-    if attentive(human, rng) {
-        stats.nuisances += 1;
-        spend_budget(budget_left, stats, t_exp);
-        Some(undone as usize)
-    } else {
-        stats.forgotten += 1;
-        None
-    }
+    attend(human, budget_left, stats, t_exp, rng, |s| s.nuisances += 1).then_some(undone as usize)
 }
 
 /// SPEC 11.1 at an arrival in the goal after babbling, where only the human brings reward: the
@@ -142,12 +146,11 @@ pub fn reward(
     if *budget_left == 0 {
         return 0.0;
     }
-    if attentive(human, rng) {
-        stats.rewards_given += 1;
-        spend_budget(budget_left, stats, t_exp);
+    if attend(human, budget_left, stats, t_exp, rng, |s| {
+        s.rewards_given += 1
+    }) {
         reward
     } else {
-        stats.forgotten += 1;
         0.0
     }
 }

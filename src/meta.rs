@@ -29,6 +29,7 @@ pub fn expert_values(
 ) -> (f64, f64) {
     values_from_bits(
         params,
+        params.controller,
         entropy_bits(pavg_mf),
         entropy_bits(pavg_mb),
         pavg_mf.len(),
@@ -38,9 +39,10 @@ pub fn expert_values(
 }
 
 /// [`expert_values`] from the two distributions' entropies in bits over `n_actions` actions.
-#[inline]
+#[inline(always)]
 fn values_from_bits(
     params: &Params,
+    controller: Controller,
     bits_mf: f64,
     bits_mb: f64,
     n_actions: usize,
@@ -55,7 +57,7 @@ fn values_from_bits(
     } else {
         (bits_mf, bits_mb)
     };
-    match params.controller {
+    match controller {
         Controller::Ec => {
             // Eq. 7: kappa uses the MF entropy in bits, never normalised (SPEC 4).
             let kappa = (-params.kappa_coeff * bits_mf).exp();
@@ -77,11 +79,13 @@ pub fn p_mb_softmax(v_mf: f64, v_mb: f64, tau: f64) -> f64 {
     1.0 / (1.0 + ((v_mf - v_mb) / tau).exp())
 }
 
-/// The MC's choice in one state. `uniform` draws a number in [0, 1) when a draw is needed: once
-/// for `rnd` and softmax selection, and only on a tie for argmax selection.
-#[inline]
+/// The MC's choice in one state for `controller` (the run's, passed apart so that a step compiled
+/// for one controller folds the match). `uniform` draws a number in [0, 1) when a draw is needed:
+/// once for `rnd` and softmax selection, and only on a tie for argmax selection.
+#[inline(always)]
 pub fn choose(
     params: &Params,
+    controller: Controller,
     pavg_mf: &[f64],
     pavg_mb: &[f64],
     cost_mf: f64,
@@ -90,7 +94,7 @@ pub fn choose(
 ) -> Choice {
     let n = pavg_mf.len();
     // Each distribution's entropy is computed once and serves the values and the report.
-    let (use_mb, p_mb, chosen_bits) = match params.controller {
+    let (use_mb, p_mb, chosen_bits) = match controller {
         Controller::Mf => (false, 0.0, entropy_bits(pavg_mf)),
         Controller::Mb => (true, 1.0, entropy_bits(pavg_mb)),
         Controller::Rnd => {
@@ -101,7 +105,8 @@ pub fn choose(
         Controller::Ec | Controller::Entropy => {
             let bits_mf = entropy_bits(pavg_mf);
             let bits_mb = entropy_bits(pavg_mb);
-            let (v_mf, v_mb) = values_from_bits(params, bits_mf, bits_mb, n, cost_mf, cost_mb);
+            let (v_mf, v_mb) =
+                values_from_bits(params, controller, bits_mf, bits_mb, n, cost_mf, cost_mb);
             let p_mb = p_mb_softmax(v_mf, v_mb, params.tau);
             let use_mb = match params.selection {
                 Selection::Softmax => uniform() < p_mb,
@@ -172,10 +177,18 @@ mod tests {
             ..Params::default()
         };
         let mut draws = 0;
-        let c = choose(&params, &[0.5, 0.5], &[1.0, 0.0], 0.0, 0.0, || {
-            draws += 1;
-            0.9
-        });
+        let c = choose(
+            &params,
+            params.controller,
+            &[0.5, 0.5],
+            &[1.0, 0.0],
+            0.0,
+            0.0,
+            || {
+                draws += 1;
+                0.9
+            },
+        );
         assert!(c.use_mb);
         assert_eq!(draws, 0);
         assert_eq!(c.chosen_entropy, 0.0);

@@ -585,11 +585,8 @@ impl Batch {
             .with_min_len(1)
             .for_each(|(params, mut view)| {
                 let started = Instant::now();
-                let end = (params.babbling as u64 + params.steps as u64)
-                    .min(view.cursor.t.saturating_add(steps));
-                while view.cursor.t < end {
-                    step(spec, params, window_cap, &mut view);
-                }
+                let end = view.cursor.t.saturating_add(steps);
+                step::run_until(spec, params, window_cap, &mut view, end);
                 view.stats.wall_time_s += started.elapsed().as_secs_f64();
             });
     }

@@ -17,27 +17,165 @@ use crate::env::Spec;
 use crate::expert::{draw, ema, ema_into, mf, softmax_biased};
 use crate::human;
 use crate::meta;
-use crate::params::{CongratulationEffect, CostModel, Interaction, Params, RewardSource};
+use crate::params::{
+    CongratulationEffect, Controller, CostModel, Interaction, Params, RewardSource,
+};
 use crate::schedule::{Action, HumanChange, Plan};
 
 /// Advances one run by one step: a babbling step while `cursor.t < babbling`, then an experiment
 /// step. At the end of babbling the environment is reset to an initial state (not a step).
 #[inline]
 pub fn step(spec: &Spec, params: &Params, window_cap: usize, run: &mut RunView<'_>) {
-    let babbling = run.cursor.t < u64::from(params.babbling);
+    let end = run.cursor.t + 1;
+    run_until(spec, params, window_cap, run, end);
+}
+
+/// Controller kinds as const-generic parameters (stable Rust has no enum const generics).
+const MF: u8 = 0;
+const MB: u8 = 1;
+const RND: u8 = 2;
+const EC: u8 = 3;
+const ENTROPY: u8 = 4;
+
+/// The controller a const-generic kind stands for; folded at compile time.
+#[inline(always)]
+const fn controller(kind: u8) -> Controller {
+    match kind {
+        MF => Controller::Mf,
+        MB => Controller::Mb,
+        RND => Controller::Rnd,
+        EC => Controller::Ec,
+        _ => Controller::Entropy,
+    }
+}
+
+/// Advances one run until `cursor.t` reaches `end` (or the run ends): babbling, then the
+/// experiment, each as its own loop of a step compiled for the run's controller and for whether a
+/// human (or a schedule) can act at all, so none of that is branched on per step.
+pub(super) fn run_until(
+    spec: &Spec,
+    params: &Params,
+    window_cap: usize,
+    run: &mut RunView<'_>,
+    end: u64,
+) {
+    // Without a schedule, a human that never interacts and the environment's own reward, no
+    // human function can do anything: the steps skip them.
+    let human = run.plan.is_some()
+        || params.human.interaction != Interaction::None
+        || params.reward_source != RewardSource::Environment;
+    // The tidy tasks' 7 actions get their own copy, whose rows have a length known at compile
+    // time (loops unrolled, no remainder handling); other action counts share a generic one.
+    if spec.n_actions == 7 {
+        by_kind::<7>(spec, params, window_cap, run, end, human);
+    } else {
+        by_kind::<0>(spec, params, window_cap, run, end, human);
+    }
+}
+
+/// [`run_until`] for `NA` actions (0: read from the spec): the controller and human mode.
+#[inline(always)]
+fn by_kind<const NA: usize>(
+    spec: &Spec,
+    params: &Params,
+    window_cap: usize,
+    run: &mut RunView<'_>,
+    end: u64,
+    human: bool,
+) {
+    let (p, w) = (params, window_cap);
+    match (params.controller, human) {
+        (Controller::Mf, false) => run_loop::<MF, false, NA>(spec, p, w, run, end),
+        (Controller::Mf, true) => run_loop::<MF, true, NA>(spec, p, w, run, end),
+        (Controller::Mb, false) => run_loop::<MB, false, NA>(spec, p, w, run, end),
+        (Controller::Mb, true) => run_loop::<MB, true, NA>(spec, p, w, run, end),
+        (Controller::Rnd, false) => run_loop::<RND, false, NA>(spec, p, w, run, end),
+        (Controller::Rnd, true) => run_loop::<RND, true, NA>(spec, p, w, run, end),
+        (Controller::Ec, false) => run_loop::<EC, false, NA>(spec, p, w, run, end),
+        (Controller::Ec, true) => run_loop::<EC, true, NA>(spec, p, w, run, end),
+        (Controller::Entropy, false) => run_loop::<ENTROPY, false, NA>(spec, p, w, run, end),
+        (Controller::Entropy, true) => run_loop::<ENTROPY, true, NA>(spec, p, w, run, end),
+    }
+}
+
+/// [`run_until`] for one controller kind and human mode.
+fn run_loop<const KIND: u8, const HUMAN: bool, const NA: usize>(
+    spec: &Spec,
+    params: &Params,
+    window_cap: usize,
+    run: &mut RunView<'_>,
+    end: u64,
+) {
+    let babbling = u64::from(params.babbling);
+    let end = end.min(babbling + u64::from(params.steps));
+    let babble_end = end.min(babbling);
+    if run.cursor.t < babble_end {
+        while run.cursor.t < babble_end {
+            one_step::<KIND, HUMAN, NA, true>(spec, params, window_cap, run, 0);
+        }
+        if run.cursor.t == babbling {
+            // End of babbling: back to the start; a pending reset step is dropped (SPEC 7).
+            let world = world(spec, run);
+            run.cursor.pending_reset = false;
+            run.cursor.state = initial_state(world, run.rng);
+        }
+    }
+    if run.cursor.t >= end {
+        return;
+    }
+    // Experiment step numbers are 1-based; a row is written every `checkpoint` steps and at the
+    // last step, counted down rather than found by a division per step.
+    let mut t_exp = (run.cursor.t - babbling) as u32;
+    let last = params.steps;
+    let every = params.checkpoint;
+    let next_row = |t: u32| {
+        t.checked_div(every)
+            .map_or(u32::MAX, |k| (k + 1).saturating_mul(every).min(last))
+    };
+    let mut row_at = next_row(t_exp);
+    while run.cursor.t < end {
+        t_exp += 1;
+        one_step::<KIND, HUMAN, NA, false>(spec, params, window_cap, run, t_exp);
+        if t_exp == row_at {
+            record_checkpoint(run, t_exp);
+            row_at = next_row(t_exp);
+        }
+    }
+}
+
+/// The number of actions: `NA` when the step was compiled for it, else the spec's.
+#[inline(always)]
+fn actions<const NA: usize>(spec: &Spec) -> usize {
+    debug_assert!(NA == 0 || NA == spec.n_actions);
+    if NA > 0 { NA } else { spec.n_actions }
+}
+
+/// The world the run is in now: the batch's, or its plan's current one.
+#[inline(always)]
+fn world<'s>(spec: &'s Spec, run: &RunView<'s>) -> &'s Spec {
+    run.plan
+        .map_or(spec, |p| &*p.worlds[usize::from(run.cursor.world)])
+}
+
+/// One step (SPEC 3.4) at experiment step `t_exp` (0 while babbling).
+#[inline(always)]
+fn one_step<const KIND: u8, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
+    spec: &Spec,
+    params: &Params,
+    window_cap: usize,
+    run: &mut RunView<'_>,
+    t_exp: u32,
+) {
     let s = run.cursor.state as usize;
     run.cursor.t += 1;
-    // Experiment step number, 1-based (0 while babbling).
-    let t_exp = if babbling {
-        0
+    let spec = if HUMAN {
+        if let Some(plan) = run.plan {
+            apply_due(plan, params, run, t_exp);
+        }
+        world(spec, run)
     } else {
-        (run.cursor.t - u64::from(params.babbling)) as u32
+        spec
     };
-    let plan = run.plan;
-    if let Some(plan) = plan {
-        apply_due(plan, params, run, t_exp);
-    }
-    let spec = plan.map_or(spec, |p| &*p.worlds[usize::from(run.cursor.world)]);
 
     if run.cursor.pending_reset {
         // 1. The reset step: time passes, nothing is decided or learned (SPEC 2.1). Whether
@@ -45,50 +183,46 @@ pub fn step(spec: &Spec, params: &Params, window_cap: usize, run: &mut RunView<'
         run.cursor.pending_reset = false;
         run.cursor.state = initial_state(spec, run.rng);
     } else {
-        act(spec, params, window_cap, run, s, babbling, t_exp);
-    }
-
-    if babbling && run.cursor.t == u64::from(params.babbling) {
-        // End of babbling: back to the start; a pending reset step is dropped (SPEC 7).
-        run.cursor.pending_reset = false;
-        run.cursor.state = initial_state(spec, run.rng);
-    }
-    if !babbling {
-        record_checkpoint(params, run, t_exp);
+        act::<KIND, HUMAN, NA, BABBLING>(spec, params, window_cap, run, s, t_exp);
     }
 }
 
 /// Steps 2 to 8 of SPEC 3.4 in a non-goal state.
-#[inline]
-fn act(
+#[inline(always)]
+fn act<const KIND: u8, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
     spec: &Spec,
     params: &Params,
     window_cap: usize,
     run: &mut RunView<'_>,
     s: usize,
-    babbling: bool,
     t_exp: u32,
 ) {
-    let n_a = spec.n_actions;
+    let babbling = BABBLING;
+    let controller = controller(KIND);
+    let n_a = actions::<NA>(spec);
     let human = run.cursor.human;
     let human = &human;
-    let human_active = !babbling && run.cursor.budget_left > 0;
+    let human_active = HUMAN && !babbling && run.cursor.budget_left > 0;
 
     // 2. Takeover.
     let tables = spec.human.as_ref();
-    let action = human::takeover(
-        human,
-        tables,
-        human_active,
-        s,
-        &mut run.cursor.budget_left,
-        run.stats,
-        t_exp,
-        run.rng,
-    );
+    let action = if human_active {
+        human::takeover(
+            human,
+            tables,
+            human_active,
+            s,
+            &mut run.cursor.budget_left,
+            run.stats,
+            t_exp,
+            run.rng,
+        )
+    } else {
+        None
+    };
     let a = match action {
         Some(a) => a,
-        None => decide(spec, params, run, s, babbling),
+        None => decide::<KIND, HUMAN, NA, BABBLING>(spec, params, run, s),
     };
 
     // 6. Environment.
@@ -101,7 +235,8 @@ fn act(
     };
     let mut next = spec.outcome_state[o] as usize;
     // 11.2: a nuisance human undoes a relevant action before anything learns from it.
-    if let Some(undone) = human::nuisance(
+    if !human_active {
+    } else if let Some(undone) = human::nuisance(
         human,
         tables,
         human_active,
@@ -120,7 +255,7 @@ fn act(
         run.cursor.goal_reward
     };
     // 11.1: where only the human brings reward, an arrival in the goal is an opportunity.
-    if terminal && !babbling && run.cursor.reward_source == RewardSource::Human {
+    if HUMAN && terminal && !babbling && run.cursor.reward_source == RewardSource::Human {
         reward = human::reward(
             human,
             reward,
@@ -132,18 +267,23 @@ fn act(
     }
 
     // 7. Feedback: G(s, a) is set by an attentive human with budget, reset otherwise (Eq. 8).
-    let g = human::feedback(
-        human,
-        tables,
-        human_active,
-        sa,
-        &mut run.cursor.budget_left,
-        run.stats,
-        t_exp,
-        run.rng,
-    );
+    let g = if human_active {
+        human::feedback(
+            human,
+            tables,
+            human_active,
+            sa,
+            &mut run.cursor.budget_left,
+            run.stats,
+            t_exp,
+            run.rng,
+        )
+    } else {
+        0
+    };
     // 11.3: a congratulation that shapes the reward is learned, not shown to the softmax.
-    let shaped = g == 1
+    let shaped = HUMAN
+        && g == 1
         && human.interaction == Interaction::Congratulation
         && params.congratulation_effect == CongratulationEffect::Reward;
     let learned = if shaped { reward + human.zeta } else { reward };
@@ -152,7 +292,7 @@ fn act(
     // 8. Learning, by every expert the controller runs. The arrival is terminal when it is the
     // goal at this time (SPEC 10): both experts learn that from the transition itself.
     run.cursor.pending_reset = terminal;
-    if params.controller.runs_mf() {
+    if controller.runs_mf() {
         mf::learn(
             run.q_mf,
             n_a,
@@ -165,7 +305,7 @@ fn act(
             params.gamma_mf,
         );
     }
-    if params.controller.runs_mb() {
+    if controller.runs_mb() {
         run.model.learn(
             window_cap,
             params.window_n as usize,
@@ -196,16 +336,23 @@ fn act(
 
 /// Steps 3 to 5 of SPEC 3.4: the MC chooses, experts infer and compute their softmax, and the
 /// action is drawn from the chosen expert's distribution.
-#[inline]
-fn decide(spec: &Spec, params: &Params, run: &mut RunView<'_>, s: usize, babbling: bool) -> usize {
-    let n_a = spec.n_actions;
+#[inline(always)]
+fn decide<const KIND: u8, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
+    spec: &Spec,
+    params: &Params,
+    run: &mut RunView<'_>,
+    s: usize,
+) -> usize {
+    let babbling = BABBLING;
+    let n_a = actions::<NA>(spec);
     let row = s * n_a..(s + 1) * n_a;
-    let controller = params.controller;
+    let controller = controller(KIND);
 
     // 3. Selection, from what earlier visits stored.
     let rng = &mut *run.rng;
     let choice = meta::choose(
         params,
+        controller,
         &run.pavg_mf[row.clone()],
         &run.pavg_mb[row.clone()],
         run.cost_mf[s],
@@ -254,7 +401,11 @@ fn decide(spec: &Spec, params: &Params, run: &mut RunView<'_>, s: usize, babblin
     }
 
     // 5. Decision: each expert the controller runs computes its (biased) softmax and folds it in.
-    let bonus = human::bonus_weight(&run.cursor.human, params.congratulation_effect);
+    let bonus = if HUMAN {
+        human::bonus_weight(&run.cursor.human, params.congratulation_effect)
+    } else {
+        0.0
+    };
     let (p_mf, p_mb) = run.scratch.split_at_mut(n_a);
     let g = &run.bonus[row.clone()];
     if controller.runs_mf() {
@@ -327,13 +478,10 @@ fn apply_due(plan: &Plan, params: &Params, run: &mut RunView<'_>, t_exp: u32) {
     }
 }
 
-/// Writes a checkpoint row every `checkpoint` experiment steps and at the last step.
-#[inline]
-fn record_checkpoint(params: &Params, run: &mut RunView<'_>, t_exp: u32) {
-    if params.checkpoint == 0 || (!t_exp.is_multiple_of(params.checkpoint) && t_exp != params.steps)
-    {
-        return;
-    }
+/// Writes the checkpoint row of experiment step `t_exp` (every `checkpoint` steps and the last;
+/// the caller counts down to it).
+#[inline(never)]
+fn record_checkpoint(run: &mut RunView<'_>, t_exp: u32) {
     let cursor = &mut *run.cursor;
     let stats = &*run.stats;
     let decisions = cursor.window_decisions;

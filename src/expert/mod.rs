@@ -11,24 +11,32 @@ pub mod mf;
 #[inline]
 pub fn softmax_biased(q: &[f64], g: &[u8], bonus: f64, tau: f64, out: &mut [f64]) {
     debug_assert!(q.len() == g.len() && q.len() == out.len());
+    // Equal lengths up front, so the loops below carry no bounds checks and the element-wise
+    // ones vectorise.
+    let n = out.len();
+    let (q, g) = (&q[..n], &g[..n]);
     let mut max = f64::NEG_INFINITY;
-    for ((o, &v), &gi) in out.iter_mut().zip(q).zip(g) {
-        let biased = v + bonus * f64::from(gi);
-        *o = biased;
+    for i in 0..n {
+        let biased = q[i] + bonus * f64::from(g[i]);
+        out[i] = biased;
         max = max.max(biased);
     }
-    let mut sum = 0.0;
-    // Rows often repeat values (untried actions, no-op actions that converge alike): each
-    // distinct argument is exponentiated once. exp(0) = 1 exactly (IEEE 754, C Annex F).
-    let mut memo = Memo::new();
+    // NOTE: SPEC 3.3's literal arithmetic, exp((v - max) / tau) / sum (the sum in action order),
+    // so that independent implementations agree to the last bit.
     for o in out.iter_mut() {
-        // NOTE: SPEC 3.3's literal arithmetic, exp((v - max) / tau) / sum, so that independent
-        // implementations agree to the last bit.
-        let x = (*o - max) / tau;
+        *o = (*o - max) / tau;
+    }
+    // Rows often repeat values (untried actions, no-op actions that converge alike): an argument
+    // equal to one of the last two exponentiated reuses its value. exp(0) = 1 exactly (IEEE 754,
+    // C Annex F).
+    let mut cache = Recent::new();
+    let mut sum = 0.0;
+    for o in out.iter_mut() {
+        let x = *o;
         let e = if x == 0.0 {
             1.0
         } else {
-            memo.get_or(x, f64::exp)
+            cache.get_or(x, f64::exp)
         };
         *o = e;
         sum += e;
@@ -42,11 +50,12 @@ pub fn softmax_biased(q: &[f64], g: &[u8], bonus: f64, tau: f64, out: &mut [f64]
 #[inline]
 pub fn entropy_bits(p: &[f64]) -> f64 {
     let mut h = 0.0;
-    // Equal probabilities give equal terms: each distinct one costs one log2.
-    let mut memo = Memo::new();
+    // Equal probabilities give equal terms: a probability equal to one of the last two whose
+    // term was computed reuses it.
+    let mut cache = Recent::new();
     for &x in p {
         if x > 0.0 {
-            h -= memo.get_or(x, |x| x * x.log2());
+            h -= cache.get_or(x, |x| x * x.log2());
         }
     }
     h.max(0.0)
@@ -80,41 +89,40 @@ fn log2_count(n: usize) -> f64 {
     }
 }
 
-/// Results of a pure function for the last few distinct arguments (compared bit for bit), so a
-/// row with repeated values costs one call per distinct value and gives identical results.
-struct Memo {
-    keys: [u64; Memo::CAP],
-    values: [f64; Memo::CAP],
-    len: usize,
+/// Results of a pure function for the last two distinct arguments (compared bit for bit), so a
+/// row with repeated values costs about one call per distinct value, with identical results.
+/// Two fixed slots rather than a searched table: rows are short and their repeats mostly
+/// neighbours or one shared value, and two compares are cheaper than a search loop.
+struct Recent {
+    keys: [u64; 2],
+    values: [f64; 2],
 }
 
-impl Memo {
-    const CAP: usize = 8;
-
+impl Recent {
+    /// No argument seen. The empty slots hold the key of +0.0, which neither caller passes
+    /// (the softmax handles ±0 before asking, the entropy only positive probabilities).
     #[inline(always)]
-    fn new() -> Memo {
-        Memo {
-            keys: [0; Memo::CAP],
-            values: [0.0; Memo::CAP],
-            len: 0,
+    fn new() -> Recent {
+        Recent {
+            keys: [0; 2],
+            values: [0.0; 2],
         }
     }
 
-    /// `f(x)`, from memory when `x` was seen.
+    /// `f(x)`, from memory when `x` was one of the last two arguments computed.
     #[inline(always)]
     fn get_or(&mut self, x: f64, f: impl Fn(f64) -> f64) -> f64 {
+        debug_assert!(x != 0.0);
         let key = x.to_bits();
-        for i in 0..self.len {
-            if self.keys[i] == key {
-                return self.values[i];
-            }
+        if key == self.keys[0] {
+            return self.values[0];
+        }
+        if key == self.keys[1] {
+            return self.values[1];
         }
         let value = f(x);
-        if self.len < Memo::CAP {
-            self.keys[self.len] = key;
-            self.values[self.len] = value;
-            self.len += 1;
-        }
+        self.keys = [key, self.keys[0]];
+        self.values = [value, self.values[0]];
         value
     }
 }
