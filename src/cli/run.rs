@@ -147,7 +147,7 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
     let mut summary = Summary::default();
     let started = std::time::Instant::now();
     let per = u64::from(args.runs);
-    pipeline::simulate_with_schedules(
+    let simulated = pipeline::simulate_with_schedules(
         &spec,
         &configs,
         &schedules,
@@ -166,9 +166,9 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
             summary.add(batch);
             Ok::<(), anyhow::Error>(())
         },
-    )
-    .map_err(|e| interrupted(e, &args.out))?;
+    );
     bar.finish_and_clear();
+    simulated.map_err(|e| interrupted(e, &args.out))?;
     let runs_staged = runs_sink.finish().map_err(runtime)?;
     let series_staged = series_sink.finish().map_err(runtime)?;
     // The last chance to stop with nothing written: after the commit the run is complete.
