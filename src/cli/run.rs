@@ -3,7 +3,6 @@
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
-use std::sync::atomic::Ordering;
 
 use anyhow::{Context, Result, anyhow};
 use clap::Args;
@@ -172,7 +171,7 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
     let runs_staged = runs_sink.finish().map_err(runtime)?;
     let series_staged = series_sink.finish().map_err(runtime)?;
     // The last chance to stop with nothing written: after the commit the run is complete.
-    if stop.load(Ordering::Relaxed) {
+    if signal::requested() {
         return Err(interrupted(pipeline::Interrupted.into(), &args.out));
     }
     output::atomic::commit_pair(
