@@ -3,8 +3,10 @@
 //! writer ([`Tables`] for a runs.parquet / series.parquet pair, or a sweep's parts) before the
 //! next is allocated, with progress reported through a callback.
 
+use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use anyhow::{Result, anyhow};
 
@@ -25,6 +27,21 @@ pub fn agent_steps(configs: &[RunConfig]) -> u64 {
         .sum()
 }
 
+/// The work stopped before its end because its progress callback asked (in the CLI, after a
+/// signal). Whatever `on_batch` received before is all there is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[error("stopped on request before every run was simulated")]
+pub struct Interrupted;
+
+/// The answer of a progress callback for work that `stop` cancels: `Break` once it is set.
+pub fn unless_stopped(stop: &AtomicBool) -> ControlFlow<()> {
+    if stop.load(Ordering::Relaxed) {
+        ControlFlow::Break(())
+    } else {
+        ControlFlow::Continue(())
+    }
+}
+
 /// Simulates `configs` on `spec` in batches of at most `batch_size` runs, handing each finished
 /// batch to `on_batch` (which writes it out) before the next is allocated, so memory stays
 /// bounded by one batch. `progress` is told the agent-steps advanced every few thousand steps.
@@ -32,23 +49,55 @@ pub fn simulate<E: From<ConfigError>>(
     spec: &Arc<Spec>,
     configs: &[RunConfig],
     batch_size: usize,
-    progress: impl FnMut(u64),
+    mut progress: impl FnMut(u64),
     on_batch: impl FnMut(&Batch) -> Result<(), E>,
 ) -> Result<(), E> {
-    simulate_with_schedules(spec, configs, &[], &[], batch_size, progress, on_batch)
+    let go_on = |n| {
+        progress(n);
+        ControlFlow::Continue(())
+    };
+    batches(spec, configs, &[], &[], batch_size, go_on, on_batch).map(|_| ())
 }
 
 /// [`simulate`] where run `i` follows `schedules[run_schedule[i]]` (SPEC 10; an empty
-/// `run_schedule` means no changes).
-pub fn simulate_with_schedules<E: From<ConfigError>>(
+/// `run_schedule` means no changes) and `progress` says whether to go on: after a
+/// [`ControlFlow::Break`] the batch in hand is dropped (written first if it had just finished)
+/// and [`Interrupted`] is returned. It is asked only between strides, so a stop costs nothing
+/// per step and takes at most one stride.
+pub fn simulate_with_schedules<E: From<ConfigError> + From<Interrupted>>(
     spec: &Arc<Spec>,
     configs: &[RunConfig],
     schedules: &[Schedule],
     run_schedule: &[usize],
     batch_size: usize,
-    mut progress: impl FnMut(u64),
-    mut on_batch: impl FnMut(&Batch) -> Result<(), E>,
+    progress: impl FnMut(u64) -> ControlFlow<()>,
+    on_batch: impl FnMut(&Batch) -> Result<(), E>,
 ) -> Result<(), E> {
+    let flow = batches(
+        spec,
+        configs,
+        schedules,
+        run_schedule,
+        batch_size,
+        progress,
+        on_batch,
+    )?;
+    match flow {
+        ControlFlow::Continue(()) => Ok(()),
+        ControlFlow::Break(()) => Err(Interrupted.into()),
+    }
+}
+
+/// The loop of [`simulate_with_schedules`]; `Break` when `progress` stopped it.
+fn batches<E: From<ConfigError>>(
+    spec: &Arc<Spec>,
+    configs: &[RunConfig],
+    schedules: &[Schedule],
+    run_schedule: &[usize],
+    batch_size: usize,
+    mut progress: impl FnMut(u64) -> ControlFlow<()>,
+    mut on_batch: impl FnMut(&Batch) -> Result<(), E>,
+) -> Result<ControlFlow<()>, E> {
     let size = batch_size.max(1);
     for (k, chunk) in configs.chunks(size).enumerate() {
         let which = if run_schedule.is_empty() {
@@ -63,7 +112,8 @@ pub fn simulate_with_schedules<E: From<ConfigError>>(
             .max()
             .unwrap_or(0);
         let mut done = 0;
-        while done < longest {
+        let mut flow = ControlFlow::Continue(());
+        while done < longest && flow.is_continue() {
             let stride = PROGRESS_STRIDE.min(longest - done);
             batch.advance(stride);
             done += stride;
@@ -74,11 +124,17 @@ pub fn simulate_with_schedules<E: From<ConfigError>>(
                     end.min(done) - end.min(done - stride)
                 })
                 .sum();
-            progress(advanced);
+            flow = progress(advanced);
         }
-        on_batch(&batch)?;
+        // A batch that finished is kept even when the stop came with its last stride.
+        if done == longest {
+            on_batch(&batch)?;
+        }
+        if flow.is_break() {
+            return Ok(flow);
+        }
     }
-    Ok(())
+    Ok(ControlFlow::Continue(()))
 }
 
 /// A runs.parquet and a series.parquet being written side by side in one folder, batch by

@@ -1,6 +1,6 @@
-//! Crash safety of `mbmf sweep` (issues 4 and 7): SIGKILL the process at many moments, check
-//! that no visible file is truncated, resume (sometimes killing the resume too), and check that
-//! the dataset equals an uninterrupted run's: no lost and no duplicated row.
+//! Crash safety of `mbmf sweep`: SIGKILL the process at many moments, check that no visible
+//! file is truncated, resume (sometimes killing the resume too), and check that the dataset
+//! equals an uninterrupted run's, no lost and no duplicated row, with nothing else left.
 
 mod common;
 
@@ -118,6 +118,14 @@ fn sigkill_at_random_moments_then_resume_gives_the_uninterrupted_dataset() {
             !out.join(".lock-0-of-1").exists(),
             "trial {trial}: lock file left"
         );
+        // Nothing else either: no copy of the sweep text a kill during start-up left.
+        let mut top: Vec<String> = std::fs::read_dir(&out)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        top.sort();
+        assert_eq!(top, ["runs", "series", "sweep.toml"], "trial {trial}");
+        assert_eq!(parts(&out, "series"), parts(&out, "runs"), "trial {trial}");
         std::fs::remove_dir_all(&out).unwrap();
     }
     eprintln!(

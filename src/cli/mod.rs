@@ -25,6 +25,7 @@ pub mod plot;
 pub mod progress;
 pub mod reproduce;
 pub mod run;
+pub mod signal;
 pub mod sweep;
 
 use args::threads_count;
@@ -84,7 +85,7 @@ pub fn write_stdout(text: std::fmt::Arguments<'_>) {
     about,
     long_about = None,
     help_expected = true,
-    after_help = "Exit codes: 0 success, 1 runtime failure (e.g. a write that failed), 2 usage error (a bad flag, value, file or combination)."
+    after_help = "Exit codes: 0 success, 1 runtime failure (e.g. a write that failed), 2 usage error (a bad flag, value, file or combination), 130 / 143 run or sweep stopped by SIGINT / SIGTERM."
 )]
 pub struct Cli {
     /// Worker threads, 1 to 4096 (default: RAYON_NUM_THREADS, else every core). Results do not

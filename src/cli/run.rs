@@ -8,7 +8,7 @@ use anyhow::{Context, Result, anyhow};
 use clap::Args;
 
 use super::args::{ParamArgs, batch_size, explain, load_task, runs_count, seed};
-use super::{Failure, progress, runtime, usage};
+use super::{Failure, progress, runtime, signal, usage};
 use crate::batch::{Batch, RunConfig};
 use crate::env::Spec;
 use crate::output;
@@ -195,6 +195,7 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
     let run_schedule = vec![0; configs.len()];
     let batch_size = pipeline::plan_batch_size(&spec, &configs, args.batch_size).map_err(usage)?;
     let [runs_target, series_target] = prepare_out(&args.out, args.force)?;
+    let stop = signal::install();
     let staging = Staging::create(&args.out)?;
     if batch_size < args.batch_size.min(configs.len()) && !args.quiet {
         eprintln!(
@@ -210,13 +211,16 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
     let mut summary = Summary::new(&args.out);
     let started = std::time::Instant::now();
     let per = u64::from(args.runs);
-    pipeline::simulate_with_schedules(
+    let simulated = pipeline::simulate_with_schedules(
         &spec,
         &configs,
         &schedules,
         &run_schedule,
         batch_size,
-        |n| bar.inc(n),
+        |n| {
+            bar.inc(n);
+            pipeline::unless_stopped(stop)
+        },
         |batch: &Batch| {
             runs_sink.write(&output::with_run_indices(output::runs_batch(batch)?, per)?)?;
             series_sink.write(&output::with_run_indices(
@@ -226,12 +230,16 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
             summary.add(batch)?;
             Ok::<(), anyhow::Error>(())
         },
-    )
-    .map_err(runtime)?;
+    );
     bar.finish_and_clear();
+    simulated.map_err(|e| interrupted(e, &args.out))?;
     let rows = summary.rows().map_err(runtime)?;
     let runs_staged = runs_sink.finish().map_err(runtime)?;
     let series_staged = series_sink.finish().map_err(runtime)?;
+    // The last chance to stop with nothing written: after the commit the run is complete.
+    if signal::requested() {
+        return Err(interrupted(pipeline::Interrupted.into(), &args.out));
+    }
     output::atomic::commit_pair(
         (&series_staged, &series_target),
         (&runs_staged, &runs_target),
@@ -388,6 +396,28 @@ fn prepare_out(out: &Path, force: bool) -> Result<[PathBuf; 2], Failure> {
     Ok(targets)
 }
 
+/// A failure of the simulation; after a signal, one saying that nothing was written (the
+/// staging folder is removed as the caller returns) and that earlier results are untouched.
+fn interrupted(error: anyhow::Error, out: &Path) -> Failure {
+    if error.downcast_ref::<pipeline::Interrupted>().is_none() {
+        return runtime(error);
+    }
+    let earlier = if out.join("runs.parquet").exists() {
+        "the results already there are untouched"
+    } else {
+        "it holds no results"
+    };
+    Failure {
+        code: signal::exit_code(),
+        error: anyhow!(
+            "interrupted by {}: nothing was written to {} ({earlier}); run the command again to \
+             start over",
+            signal::received(),
+            out.display()
+        ),
+    }
+}
+
 /// A private folder inside the output folder where both Parquet files are written; they are
 /// moved into place as one commit ([`output::atomic::commit_pair`]) only when both are
 /// complete. The folder and anything left in it are removed when the value is dropped.
@@ -397,10 +427,13 @@ impl Staging {
     /// Creates the folder; this is also the check that the output folder accepts new files,
     /// done before anything is simulated.
     fn create(out: &Path) -> Result<Staging, Failure> {
+        // Staging folders of killed runs hold nothing of use.
+        output::atomic::remove_dead_staging(out);
         let dir = out.join(format!(".mbmf-run-{}", std::process::id()));
         std::fs::create_dir_all(&dir)
             .with_context(|| format!("cannot write into output folder {}", out.display()))
             .map_err(runtime)?;
+        signal::remove_on_forced_exit(dir.clone());
         Ok(Staging(dir))
     }
 }
@@ -409,6 +442,7 @@ impl Drop for Staging {
     fn drop(&mut self) {
         // Best effort: after a commit only the empty folder is left.
         let _ = std::fs::remove_dir_all(&self.0);
+        signal::keep_on_forced_exit(&self.0);
     }
 }
 

@@ -7,9 +7,11 @@ use std::time::Instant;
 use anyhow::anyhow;
 use clap::Args;
 
-use super::{Failure, progress, runtime, usage};
+use super::{Failure, progress, runtime, signal, usage};
 use crate::sizing;
-use crate::sweep::{Event, Options, Shard, Sweep, describe_plan, execute, runner, shard, store};
+use crate::sweep::{
+    Event, Options, RunError, Shard, Sweep, describe_plan, execute, runner, shard, store,
+};
 
 const EXAMPLES: &str = "\
 Examples:
@@ -169,18 +171,25 @@ pub fn command(args: &SweepArgs) -> Result<(), Failure> {
     };
     let mut bar = None;
     let started = Instant::now();
+    // Runs of the shard committed before this process, and its progress: what an interruption
+    // reports as kept.
+    let mut kept = (0u64, 0u64, 0u64);
     let mut on_event = |event: Event| match event {
         Event::Warning(w) => eprintln!("warning: {w}"),
-        Event::Resuming { done, of, to_run } if !args.quiet => eprintln!(
-            "resuming {}: {done} of {of} runs{} already done, {to_run} to run",
-            options.out.display(),
-            if shard == Shard::ALL {
-                String::new()
-            } else {
-                format!(" of shard {shard}")
+        Event::Resuming { done, of, to_run } => {
+            kept.0 = done;
+            if !args.quiet {
+                eprintln!(
+                    "resuming {}: {done} of {of} runs{} already done, {to_run} to run",
+                    options.out.display(),
+                    if shard == Shard::ALL {
+                        String::new()
+                    } else {
+                        format!(" of shard {shard}")
+                    }
+                );
             }
-        ),
-        Event::Resuming { .. } => {}
+        }
         Event::Started { agent_steps } => {
             bar = Some(progress::bar(agent_steps, args.quiet, true));
         }
@@ -190,6 +199,7 @@ pub fn command(args: &SweepArgs) -> Result<(), Failure> {
             }
         }
         Event::Ran { ran, to_run } => {
+            (kept.1, kept.2) = (ran, to_run);
             let secs = started.elapsed().as_secs_f64().max(1e-9);
             if let Some(b) = &bar {
                 b.set_message(format!(
@@ -199,12 +209,16 @@ pub fn command(args: &SweepArgs) -> Result<(), Failure> {
             }
         }
     };
-    let report = execute(&sweep, &specs, &options, &mut on_event)
-        .map_err(|e| if e.is_usage() { usage(e) } else { runtime(e) });
+    let stop = signal::install();
+    let report = execute(&sweep, &specs, &options, stop, &mut on_event);
     if let Some(b) = bar {
         b.finish_and_clear();
     }
-    let report = report?;
+    let report = report.map_err(|e| match e {
+        RunError::Interrupted(_) => interrupted(args, &options, kept),
+        e if e.is_usage() => usage(e),
+        e => runtime(e),
+    })?;
     if args.json {
         let json = serde_json::json!({
             "verb": "sweep",
@@ -224,6 +238,55 @@ pub fn command(args: &SweepArgs) -> Result<(), Failure> {
         outln!("{}", report.line());
     }
     Ok(())
+}
+
+/// The failure of a sweep stopped by a signal: what is committed, and the command that runs the
+/// rest. `kept` is (runs of the shard done before, runs this process committed, runs it had to
+/// run).
+fn interrupted(args: &SweepArgs, options: &Options, kept: (u64, u64, u64)) -> Failure {
+    let (before, ran, to_run) = kept;
+    let whose = if options.shard == Shard::ALL {
+        String::new()
+    } else {
+        format!(" of shard {}", options.shard)
+    };
+    let mut resume = format!(
+        "mbmf sweep {} --out {} --resume",
+        shell_word(&args.file.to_string_lossy()),
+        shell_word(&options.out.to_string_lossy())
+    );
+    if args.shard_from_env {
+        resume.push_str(" --shard-from-env");
+        if let Some(n) = args.shard_count {
+            resume.push_str(&format!(" --shard-count {n}"));
+        }
+    } else if let Some(s) = args.shard {
+        resume.push_str(&format!(" --shard {s}"));
+    }
+    Failure {
+        code: signal::exit_code(),
+        error: anyhow!(
+            "interrupted by {}: {} holds {} of {} runs{whose} ({ran} committed by this process, \
+             no partial part left, lock released); run the rest with: {resume}",
+            signal::received(),
+            options.out.display(),
+            before + ran,
+            before + to_run,
+        ),
+    }
+}
+
+/// `word` as one shell word: unchanged when it is plain, else in single quotes.
+fn shell_word(word: &str) -> String {
+    let plain = !word.is_empty()
+        && word
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || "/._-+=:,@%".contains(c));
+    if plain {
+        word.to_string()
+    } else {
+        format!("'{}'", word.replace('\'', "'\\''"))
+    }
 }
 
 /// `mbmf compact`.

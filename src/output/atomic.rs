@@ -95,26 +95,44 @@ pub fn commit_pair(series: (&Path, &Path), runs: (&Path, &Path)) -> std::io::Res
         return Err(e);
     }
     sync(dir);
-    // Copies left by earlier interrupted commits are of no run now, and the staging folders
-    // of killed runs (`.mbmf-run-PID` of a pid no longer running) hold nothing of use.
+    // Copies left by earlier interrupted commits are of no run now.
     if let Ok(entries) = std::fs::read_dir(dir) {
         for e in entries.flatten() {
             let name = e.file_name().to_string_lossy().into_owned();
             if name.starts_with(".series-") && name.ends_with(".parquet") {
                 let _ = std::fs::remove_file(e.path());
             }
-            let dead = name
-                .strip_prefix(".mbmf-run-")
-                .and_then(|pid| pid.parse::<u32>().ok())
-                .is_some_and(|pid| {
-                    pid != std::process::id() && !Path::new(&format!("/proc/{pid}")).exists()
-                });
-            if dead {
-                let _ = std::fs::remove_dir_all(e.path());
-            }
         }
     }
+    remove_dead_staging(dir);
     Ok(())
+}
+
+/// Removes the staging folders (`.mbmf-run-PID`) that killed runs left in `dir`: those whose
+/// process is no longer running. Another live run's folder, and this process's, are kept.
+pub fn remove_dead_staging(dir: &Path) {
+    remove_dead_leftovers(dir, ".mbmf-run-");
+}
+
+/// Removes the entries of `dir` (files or folders) named `PREFIX` + a pid, where that pid is
+/// not running on this host (nor this process): what a killed process left under its pid.
+pub fn remove_dead_leftovers(dir: &Path, prefix: &str) {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return;
+    };
+    for e in entries.flatten() {
+        let name = e.file_name().to_string_lossy().into_owned();
+        let dead = name
+            .strip_prefix(prefix)
+            .and_then(|pid| pid.parse::<u32>().ok())
+            .is_some_and(|pid| {
+                pid != std::process::id() && !Path::new(&format!("/proc/{pid}")).exists()
+            });
+        if dead {
+            let path = e.path();
+            let _ = std::fs::remove_dir_all(&path).or_else(|_| std::fs::remove_file(&path));
+        }
+    }
 }
 
 fn sync(dir: &Path) {

@@ -4,6 +4,7 @@
 
 use std::path::PathBuf;
 use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 use arrow::array::{ArrayRef, RecordBatch, StringArray};
@@ -74,6 +75,10 @@ pub enum RunError {
     /// A configuration the engine refused (validation should have caught it).
     #[error(transparent)]
     Config(#[from] ConfigError),
+    /// `stop` was set: the parts written before it are committed, nothing else of this run is
+    /// left, and `--resume` runs the rest.
+    #[error(transparent)]
+    Interrupted(#[from] pipeline::Interrupted),
 }
 
 impl RunError {
@@ -234,7 +239,7 @@ fn plan(
     let seeds = u64::from(sweep.seeds);
     for config in shard.configs(sweep.configurations()) {
         let first = config * seeds;
-        let missing = (0..seeds).filter(|s| !done.contains(first + s)).count();
+        let missing = missing_runs(done, config, seeds) as usize;
         if missing == 0 {
             continue;
         }
@@ -279,11 +284,20 @@ fn plan(
     Ok(())
 }
 
+/// Runs of configuration `config` (of `seeds` runs each) not in `done`.
+fn missing_runs(done: &store::RunSet, config: u64, seeds: u64) -> u64 {
+    let first = config * seeds;
+    (0..seeds).filter(|s| !done.contains(first + s)).count() as u64
+}
+
 /// Runs `sweep` (the shard of `options`) into `options.out`, telling `events` what happens.
+/// Once `stop` is set, the run ends within one simulation stride with
+/// [`RunError::Interrupted`], its lock released and no temporary file left.
 pub fn execute(
     sweep: &Sweep,
     specs: &[Arc<Spec>],
     options: &Options,
+    stop: &AtomicBool,
     events: &mut dyn FnMut(Event<'_>),
 ) -> Result<Report, RunError> {
     let started = Instant::now();
@@ -314,10 +328,7 @@ pub fn execute(
     let mut steps_to_run = 0u64;
     for config in shard.configs(sweep.configurations()) {
         shard_runs += seeds;
-        let first = config * seeds;
-        let missing = (0..seeds)
-            .filter(|s| !scan.done.contains(first + s))
-            .count() as u64;
+        let missing = missing_runs(&scan.done, config, seeds);
         shard_done += seeds - missing;
         if missing > 0 {
             let p = sweep.resolve(config).params;
@@ -353,13 +364,19 @@ pub fn execute(
             let first = configs.iter().map(|c| c.run_index).min().unwrap_or(0);
             let last = configs.iter().map(|c| c.run_index).max().unwrap_or(0);
             let name = store::part_name(first, last, total);
+            if stop.load(Ordering::Relaxed) {
+                return Err(pipeline::Interrupted.into());
+            }
             pipeline::simulate_with_schedules(
                 &specs[task],
                 &configs,
                 &sweep.schedules,
                 &schedules,
                 configs.len(),
-                |n| events(Event::Advanced(n)),
+                |n| {
+                    events(Event::Advanced(n));
+                    pipeline::unless_stopped(stop)
+                },
                 |batch: &Batch| {
                     let (runs, series) = tables(batch, &meta, sweep)?;
                     store::write_part(out, &name, &runs, &series, &metadata)?;

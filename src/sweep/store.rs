@@ -386,11 +386,16 @@ pub fn init_folder(dir: &Path, text: &str, file: &str) -> Result<(), StoreError>
         match linked {
             Ok(()) => sync_dir(dir),
             Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {}
+            // Another shard stored it and cleared our copy as a leftover (see below).
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound && sweep.exists() => {}
             Err(e) => return Err(io("write", &sweep)(e)),
         }
     }
     let existing = fs::read_to_string(&sweep).map_err(io("read", &sweep))?;
     compare_text(dir, &existing, text, file)?;
+    // Copies of the text that processes killed during start-up left are of no use now. A live
+    // process of another host whose copy goes too finds sweep.toml stored (see above).
+    output::atomic::remove_dead_leftovers(dir, ".sweep.toml.tmp-");
     for sub in [RUNS_DIR, SERIES_DIR] {
         let path = dir.join(sub);
         fs::create_dir_all(&path).map_err(io("create", &path))?;
