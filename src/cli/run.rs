@@ -84,18 +84,23 @@ pub fn run_configs(args: &RunArgs) -> Result<Vec<RunConfig>> {
 
 /// The runs of `params` (one entry per controller), `args.runs` each, numbered controller-major.
 fn expand(args: &RunArgs, params: &[Params]) -> Vec<RunConfig> {
-    let mut configs = Vec::with_capacity(params.len() * args.runs as usize);
-    for (ci, params) in params.iter().enumerate() {
-        for r in 0..args.runs {
-            configs.push(RunConfig {
-                params: *params,
-                seed: args.seed,
-                run_index: ci as u64 * u64::from(args.runs) + u64::from(r),
-            });
-        }
-    }
-    configs
+    let total = params.len() as u64 * u64::from(args.runs);
+    (0..total).map(|i| config_at(args, params, i)).collect()
 }
+
+/// Run `i` of [`expand`], built on demand so that memory does not grow with `--runs`.
+fn config_at(args: &RunArgs, params: &[Params], i: u64) -> RunConfig {
+    let per = u64::from(args.runs);
+    RunConfig {
+        params: params[(i / per) as usize],
+        seed: args.seed,
+        run_index: i,
+    }
+}
+
+/// Batches whose configurations are built at once: enough to keep every thread busy, few
+/// enough that the configurations of a million-run job are never all in memory.
+const BATCHES_PER_WINDOW: usize = 16;
 
 /// The validated parameters of each controller's runs, in `--controller` order.
 fn controller_params(args: &RunArgs) -> Result<Vec<Params>> {
@@ -190,14 +195,17 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
         eprintln!("warning: {warning}");
     }
     size_up(args, &spec, &params)?;
-    let configs = expand(args, &params);
+    let total = params.len() as u64 * u64::from(args.runs);
+    // The runs of one controller differ only by their index: one of each sizes a batch.
+    let firsts: Vec<RunConfig> = (0..params.len() as u64)
+        .map(|c| config_at(args, &params, c * u64::from(args.runs)))
+        .collect();
     let schedules = [schedule];
-    let run_schedule = vec![0; configs.len()];
-    let batch_size = pipeline::plan_batch_size(&spec, &configs, args.batch_size).map_err(usage)?;
+    let batch_size = pipeline::plan_batch_size(&spec, &firsts, args.batch_size).map_err(usage)?;
     let [runs_target, series_target] = prepare_out(&args.out, args.force)?;
     let stop = signal::install();
     let staging = Staging::create(&args.out)?;
-    if batch_size < args.batch_size.min(configs.len()) && !args.quiet {
+    if (batch_size as u64) < (args.batch_size as u64).min(total) && !args.quiet {
         eprintln!(
             "note: simulating {batch_size} runs at a time instead of {} so that a batch fits in \
              memory (results do not depend on it)",
@@ -207,30 +215,50 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
     let [runs_meta, series_meta] = output::pair_metadata(args.seed);
     let mut runs_sink = output::ParquetSink::new(&staging.0.join("runs.parquet"), runs_meta);
     let mut series_sink = output::ParquetSink::new(&staging.0.join("series.parquet"), series_meta);
-    let bar = progress::bar(pipeline::agent_steps(&configs), args.quiet, false);
+    let per_run_steps: Vec<u64> = firsts
+        .iter()
+        .map(|c| pipeline::agent_steps(std::slice::from_ref(c)))
+        .collect();
+    let bar = progress::bar(
+        per_run_steps.iter().sum::<u64>() * u64::from(args.runs),
+        args.quiet,
+        false,
+    );
     let mut summary = Summary::new(&args.out);
     let started = std::time::Instant::now();
     let per = u64::from(args.runs);
-    let simulated = pipeline::simulate_with_schedules(
-        &spec,
-        &configs,
-        &schedules,
-        &run_schedule,
-        batch_size,
-        |n| {
-            bar.inc(n);
-            pipeline::unless_stopped(stop)
-        },
-        |batch: &Batch| {
-            runs_sink.write(&output::with_run_indices(output::runs_batch(batch)?, per)?)?;
-            series_sink.write(&output::with_run_indices(
-                output::series_batch(batch)?,
-                per,
-            )?)?;
-            summary.add(batch)?;
-            Ok::<(), anyhow::Error>(())
-        },
-    );
+    let mut progress = |n| {
+        bar.inc(n);
+        pipeline::unless_stopped(stop)
+    };
+    let mut on_batch = |batch: &Batch| {
+        runs_sink.write(&output::with_run_indices(output::runs_batch(batch)?, per)?)?;
+        series_sink.write(&output::with_run_indices(
+            output::series_batch(batch)?,
+            per,
+        )?)?;
+        summary.add(batch)?;
+        Ok::<(), anyhow::Error>(())
+    };
+    // Windows are whole batches, so batches are cut where one call over every run cuts them.
+    let window = batch_size.saturating_mul(BATCHES_PER_WINDOW) as u64;
+    let run_schedule = vec![0; window.min(total) as usize];
+    let mut simulated = Ok(());
+    let mut start = 0;
+    while start < total && simulated.is_ok() {
+        let end = start.saturating_add(window).min(total);
+        let chunk: Vec<RunConfig> = (start..end).map(|i| config_at(args, &params, i)).collect();
+        simulated = pipeline::simulate_with_schedules(
+            &spec,
+            &chunk,
+            &schedules,
+            &run_schedule[..chunk.len()],
+            batch_size,
+            &mut progress,
+            &mut on_batch,
+        );
+        start = end;
+    }
     bar.finish_and_clear();
     simulated.map_err(|e| interrupted(e, &args.out))?;
     let rows = summary.rows().map_err(runtime)?;
@@ -257,7 +285,7 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
                 "runs": runs_path.display().to_string(),
                 "series": series_path.display().to_string(),
             },
-            "runs": configs.len(),
+            "runs": total,
             "seconds": started.elapsed().as_secs_f64(),
             "controllers": json_rows(&rows),
         });
@@ -268,7 +296,7 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
             table(
                 &rows,
                 &args.task,
-                configs.len(),
+                total as usize,
                 started.elapsed().as_secs_f64()
             )
         );
