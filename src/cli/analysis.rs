@@ -496,6 +496,11 @@ fn comparison_json(c: &Comparison) -> serde_json::Value {
     })
 }
 
+/// Column titles of a text table.
+fn titles(names: &[&str]) -> Vec<String> {
+    names.iter().map(|s| s.to_string()).collect()
+}
+
 fn print_comparison(c: &Comparison) {
     outln!(
         "{}: {} by {} (two-sided Wilcoxon-Mann-Whitney tests, Holm-corrected over {} pair{})",
@@ -505,10 +510,7 @@ fn print_comparison(c: &Comparison) {
         c.pairs.len(),
         if c.pairs.len() == 1 { "" } else { "s" }
     );
-    let headers: Vec<String> = [c.by.as_str(), "n", "mean", "sd", "median"]
-        .iter()
-        .map(|s| s.to_string())
-        .collect();
+    let headers = titles(&[c.by.as_str(), "n", "mean", "sd", "median"]);
     let rows: Vec<Vec<String>> = c
         .groups
         .iter()
@@ -528,10 +530,7 @@ fn print_comparison(c: &Comparison) {
         .collect();
     out!("{}", render(&headers, &rows, 1));
     outln!();
-    let headers: Vec<String> = ["a", "b", "U", "p", "p_holm", "", "effect", "method"]
-        .iter()
-        .map(|s| s.to_string())
-        .collect();
+    let headers = titles(&["a", "b", "U", "p", "p_holm", "", "effect", "method"]);
     let rows: Vec<Vec<String>> = c
         .pairs
         .iter()
@@ -719,10 +718,7 @@ fn print_min_budget(r: &MinBudget, levels: bool) {
         for (g, group) in r.groups.iter().enumerate() {
             outln!();
             outln!("{}", row_label(r, g).join(" "));
-            let headers: Vec<String> = ["budget", "n", "mean", "sd", "qualifies", "beaten by"]
-                .iter()
-                .map(|s| s.to_string())
-                .collect();
+            let headers = titles(&["budget", "n", "mean", "sd", "qualifies", "beaten by"]);
             let rows: Vec<Vec<String>> = group
                 .levels
                 .iter()

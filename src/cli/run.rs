@@ -215,12 +215,8 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
     let [runs_meta, series_meta] = output::pair_metadata(args.seed);
     let mut runs_sink = output::ParquetSink::new(&staging.0.join("runs.parquet"), runs_meta);
     let mut series_sink = output::ParquetSink::new(&staging.0.join("series.parquet"), series_meta);
-    let per_run_steps: Vec<u64> = firsts
-        .iter()
-        .map(|c| pipeline::agent_steps(std::slice::from_ref(c)))
-        .collect();
     let bar = progress::bar(
-        per_run_steps.iter().sum::<u64>() * u64::from(args.runs),
+        pipeline::agent_steps(&firsts) * u64::from(args.runs),
         args.quiet,
         false,
     );
