@@ -1,7 +1,9 @@
-//! The one simulate-and-write pipeline of `mbmf run`, `mbmf sweep` and `mbmf reproduce`: runs
-//! of one environment simulated in batches that fit in memory, each finished batch handed to a
-//! writer ([`Tables`] for a runs.parquet / series.parquet pair, or a sweep's parts) before the
-//! next is allocated, with progress reported through a callback.
+//! The one simulate-and-write pipeline of `mbmf run`, `mbmf sweep` and `mbmf reproduce`. The
+//! verb builds [`Group`]s of runs of one task lazily (windows of `mbmf run`'s runs, a sweep's
+//! batches of one task and one value of each text parameter) and hands each to a [`Job`], which
+//! simulates it in batches that fit in memory and gives every finished batch to its [`Writer`]
+//! (the [`Tables`] pair, or a sweep's parts) before the next is allocated, with progress
+//! reported through a callback that can stop the work.
 
 use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
@@ -9,6 +11,8 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use anyhow::{Result, anyhow};
+use arrow::array::{ArrayRef, Int64Array, RecordBatch, StringArray};
+use arrow::datatypes::{Field, Schema};
 
 use crate::batch::{Batch, RunConfig};
 use crate::env::Spec;
@@ -21,14 +25,33 @@ const PROGRESS_STRIDE: u64 = 2_000;
 
 /// Agent-steps (babbling included) that simulating `configs` takes.
 pub fn agent_steps(configs: &[RunConfig]) -> u64 {
-    configs
-        .iter()
-        .map(|c| u64::from(c.params.babbling) + u64::from(c.params.steps))
-        .sum()
+    configs.iter().map(|c| run_steps(&c.params)).sum()
+}
+
+/// Agent-steps (babbling included) of one run of `params`.
+pub fn run_steps(params: &Params) -> u64 {
+    u64::from(params.babbling) + u64::from(params.steps)
+}
+
+/// Run `seed_index` of configuration `config` of `seeds` runs each: the one numbering of `mbmf
+/// run` (each controller is a configuration) and `mbmf sweep`. With the master seed, its run
+/// index fixes the run's random stream, so batching and sharding never change a result.
+pub fn run_config(
+    params: Params,
+    master_seed: u64,
+    config: u64,
+    seeds: u64,
+    seed_index: u64,
+) -> RunConfig {
+    RunConfig {
+        params,
+        seed: master_seed,
+        run_index: config * seeds + seed_index,
+    }
 }
 
 /// The work stopped before its end because its progress callback asked (in the CLI, after a
-/// signal). Whatever `on_batch` received before is all there is.
+/// signal). Whatever was written before is all there is.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
 #[error("stopped on request before every run was simulated")]
 pub struct Interrupted;
@@ -42,53 +65,110 @@ pub fn unless_stopped(stop: &AtomicBool) -> ControlFlow<()> {
     }
 }
 
-/// Simulates `configs` on `spec` in batches of at most `batch_size` runs, handing each finished
-/// batch to `on_batch` (which writes it out) before the next is allocated, so memory stays
-/// bounded by one batch. `progress` is told the agent-steps advanced every few thousand steps.
+/// Runs of one task simulated and written together, built by the verb one group at a time so
+/// that only a group's configurations are in memory.
+#[derive(Debug, Default)]
+pub struct Group {
+    /// The runs.
+    pub configs: Vec<RunConfig>,
+    /// Per run, its index into the job's schedules.
+    pub schedules: Vec<usize>,
+    /// Per run, its index into the writer's profile names (empty: the engine's names).
+    pub profiles: Vec<usize>,
+}
+
+impl Group {
+    /// Adds a run following `schedule` whose `profile` column names `profile`.
+    pub fn push(&mut self, config: RunConfig, schedule: usize, profile: usize) {
+        self.configs.push(config);
+        self.schedules.push(schedule);
+        self.profiles.push(profile);
+    }
+}
+
+/// Where finished batches go.
+pub trait Writer {
+    /// Why writing failed.
+    type Error;
+    /// Writes the rows of a finished batch; `profiles` as in [`Group::profiles`].
+    fn write(&mut self, batch: &Batch, profiles: &[usize]) -> Result<(), Self::Error>;
+}
+
+/// Simulation of groups of runs into one writer.
+pub struct Job<'a, W> {
+    /// The schedules of changes that runs refer to.
+    pub schedules: &'a [Schedule],
+    /// Runs simulated at once (results do not depend on it).
+    pub batch_size: usize,
+    /// Where the results go.
+    pub writer: W,
+}
+
+impl<W: Writer> Job<'_, W> {
+    /// Simulates `group` on `spec` in batches of at most `batch_size` runs, handing each finished
+    /// batch to the writer and then to `observe`. `progress` is told the agent-steps advanced
+    /// every few thousand steps and says whether to go on: after a [`ControlFlow::Break`] the
+    /// batch in hand is dropped (written first if it had just finished) and [`Interrupted`] is
+    /// returned. It is asked only between strides (and once before the group), so a stop costs
+    /// nothing per step and takes at most one stride.
+    pub fn simulate<E>(
+        &mut self,
+        spec: &Arc<Spec>,
+        group: &Group,
+        mut progress: impl FnMut(u64) -> ControlFlow<()>,
+        mut observe: impl FnMut(&Batch) -> Result<(), E>,
+    ) -> Result<(), E>
+    where
+        E: From<ConfigError> + From<Interrupted> + From<W::Error>,
+    {
+        if progress(0).is_break() {
+            return Err(Interrupted.into());
+        }
+        let writer = &mut self.writer;
+        let flow = batches(
+            spec,
+            &group.configs,
+            self.schedules,
+            &group.schedules,
+            self.batch_size,
+            progress,
+            |batch, first| {
+                let profiles = group
+                    .profiles
+                    .get(first..first + batch.len())
+                    .unwrap_or(&[]);
+                writer.write(batch, profiles)?;
+                observe(batch)
+            },
+        )?;
+        match flow {
+            ControlFlow::Continue(()) => Ok(()),
+            ControlFlow::Break(()) => Err(Interrupted.into()),
+        }
+    }
+}
+
+/// Simulates `configs` on `spec` without changes, as [`Job::simulate`] does, handing each
+/// finished batch to `on_batch`.
 pub fn simulate<E: From<ConfigError>>(
     spec: &Arc<Spec>,
     configs: &[RunConfig],
     batch_size: usize,
     mut progress: impl FnMut(u64),
-    on_batch: impl FnMut(&Batch) -> Result<(), E>,
+    mut on_batch: impl FnMut(&Batch) -> Result<(), E>,
 ) -> Result<(), E> {
     let go_on = |n| {
         progress(n);
         ControlFlow::Continue(())
     };
-    batches(spec, configs, &[], &[], batch_size, go_on, on_batch).map(|_| ())
+    batches(spec, configs, &[], &[], batch_size, go_on, |b, _| {
+        on_batch(b)
+    })
+    .map(|_| ())
 }
 
-/// [`simulate`] where run `i` follows `schedules[run_schedule[i]]` (SPEC 10; an empty
-/// `run_schedule` means no changes) and `progress` says whether to go on: after a
-/// [`ControlFlow::Break`] the batch in hand is dropped (written first if it had just finished)
-/// and [`Interrupted`] is returned. It is asked only between strides, so a stop costs nothing
-/// per step and takes at most one stride.
-pub fn simulate_with_schedules<E: From<ConfigError> + From<Interrupted>>(
-    spec: &Arc<Spec>,
-    configs: &[RunConfig],
-    schedules: &[Schedule],
-    run_schedule: &[usize],
-    batch_size: usize,
-    progress: impl FnMut(u64) -> ControlFlow<()>,
-    on_batch: impl FnMut(&Batch) -> Result<(), E>,
-) -> Result<(), E> {
-    let flow = batches(
-        spec,
-        configs,
-        schedules,
-        run_schedule,
-        batch_size,
-        progress,
-        on_batch,
-    )?;
-    match flow {
-        ControlFlow::Continue(()) => Ok(()),
-        ControlFlow::Break(()) => Err(Interrupted.into()),
-    }
-}
-
-/// The loop of [`simulate_with_schedules`]; `Break` when `progress` stopped it.
+/// The loop of [`Job::simulate`]: `on_batch` gets each finished batch and the position of its
+/// first run in `configs`; `Break` when `progress` stopped it.
 fn batches<E: From<ConfigError>>(
     spec: &Arc<Spec>,
     configs: &[RunConfig],
@@ -96,19 +176,17 @@ fn batches<E: From<ConfigError>>(
     run_schedule: &[usize],
     batch_size: usize,
     mut progress: impl FnMut(u64) -> ControlFlow<()>,
-    mut on_batch: impl FnMut(&Batch) -> Result<(), E>,
+    mut on_batch: impl FnMut(&Batch, usize) -> Result<(), E>,
 ) -> Result<ControlFlow<()>, E> {
     let size = batch_size.max(1);
     for (k, chunk) in configs.chunks(size).enumerate() {
-        let which = if run_schedule.is_empty() {
-            &[][..]
-        } else {
-            &run_schedule[k * size..k * size + chunk.len()]
-        };
+        let which = run_schedule
+            .get(k * size..k * size + chunk.len())
+            .unwrap_or(&[]);
         let mut batch = Batch::with_schedules(Arc::clone(spec), chunk.to_vec(), schedules, which)?;
         let longest = chunk
             .iter()
-            .map(|c| u64::from(c.params.babbling) + u64::from(c.params.steps))
+            .map(|c| run_steps(&c.params))
             .max()
             .unwrap_or(0);
         let mut done = 0;
@@ -120,7 +198,7 @@ fn batches<E: From<ConfigError>>(
             let advanced: u64 = chunk
                 .iter()
                 .map(|c| {
-                    let end = u64::from(c.params.babbling) + u64::from(c.params.steps);
+                    let end = run_steps(&c.params);
                     end.min(done) - end.min(done - stride)
                 })
                 .sum();
@@ -128,7 +206,7 @@ fn batches<E: From<ConfigError>>(
         }
         // A batch that finished is kept even when the stop came with its last stride.
         if done == longest {
-            on_batch(&batch)?;
+            on_batch(&batch, k * size)?;
         }
         if flow.is_break() {
             return Ok(flow);
@@ -137,32 +215,100 @@ fn batches<E: From<ConfigError>>(
     Ok(ControlFlow::Continue(()))
 }
 
+/// The runs and series tables of a finished batch with `config_index` and `seed_index` after
+/// `master_seed` (from each run's index, for configurations of `seeds` runs) and, unless
+/// `profiles` is empty, the `profile` column written with `names[profiles[run]]` (a sweep's
+/// user-defined profiles are `custom` to the engine).
+pub fn tables(
+    batch: &Batch,
+    seeds: u64,
+    names: &[String],
+    profiles: &[usize],
+) -> Result<[RecordBatch; 2], OutputError> {
+    let runs: Vec<usize> = (0..batch.len()).collect();
+    let series: Vec<usize> = (0..batch.len())
+        .flat_map(|r| std::iter::repeat_n(r, batch.series(r).len()))
+        .collect();
+    let label = |table: RecordBatch, rows: &[usize]| {
+        let seeds = seeds.max(1);
+        let index = |f: fn(u64, u64) -> u64| -> ArrayRef {
+            let values = rows.iter().map(|&r| batch.configs()[r].run_index);
+            Arc::new(Int64Array::from_iter_values(
+                values.map(|i| f(i, seeds) as i64),
+            ))
+        };
+        let schema = table.schema();
+        let mut out: Vec<(Field, ArrayRef)> = Vec::with_capacity(schema.fields().len() + 2);
+        // The columns added are never null.
+        let new = |name: &str, column: ArrayRef| {
+            let field = output::columns::field(name, column.data_type().clone(), false);
+            (field, column)
+        };
+        for (field, column) in schema.fields().iter().zip(table.columns()) {
+            if field.name() == "profile" && !profiles.is_empty() {
+                let named = rows.iter().map(|&r| Some(names[profiles[r]].as_str()));
+                out.push(new("profile", Arc::new(named.collect::<StringArray>())));
+                continue;
+            }
+            out.push((field.as_ref().clone(), Arc::clone(column)));
+            if field.name() == "master_seed" {
+                out.push(new("config_index", index(|i, s| i / s)));
+                out.push(new("seed_index", index(|i, s| i % s)));
+            }
+        }
+        let (fields, columns): (Vec<Field>, Vec<ArrayRef>) = out.into_iter().unzip();
+        let schema = Schema::new_with_metadata(fields, schema.metadata().clone());
+        RecordBatch::try_new(Arc::new(schema), columns)
+    };
+    Ok([
+        label(output::runs_batch(batch)?, &runs)?,
+        label(output::series_batch(batch)?, &series)?,
+    ])
+}
+
 /// A runs.parquet and a series.parquet being written side by side in one folder, batch by
-/// batch, each under a temporary name until [`Tables::finish`].
+/// batch, each under a temporary name until [`Tables::finish`]. Both carry the same run id, so
+/// a reader can tell they belong together.
 pub struct Tables {
     runs: ParquetSink,
     series: ParquetSink,
+    seeds: u64,
+    names: Vec<String>,
 }
 
 impl Tables {
-    /// Prepares `dir/runs.parquet` and `dir/series.parquet`, each carrying its metadata
-    /// ([`output::pair_metadata`]).
-    pub fn new(dir: &Path, [runs, series]: [Vec<(String, String)>; 2]) -> Tables {
+    /// Prepares `dir/runs.parquet` and `dir/series.parquet` with `metadata`
+    /// ([`output::metadata`]) for configurations of `seeds` runs whose profiles are `names`.
+    pub fn new(
+        dir: &Path,
+        mut metadata: Vec<(String, String)>,
+        seeds: u64,
+        names: Vec<String>,
+    ) -> Tables {
+        let id = output::atomic::new_run_id();
+        metadata.push((output::atomic::RUN_ID_KEY.to_string(), id));
+        let series = output::with_schema(&metadata, output::provenance::SERIES_SCHEMA);
         Tables {
-            runs: ParquetSink::new(&dir.join("runs.parquet"), runs),
+            runs: ParquetSink::new(&dir.join("runs.parquet"), metadata),
             series: ParquetSink::new(&dir.join("series.parquet"), series),
+            seeds,
+            names,
         }
-    }
-
-    /// Appends the rows of a finished batch to both tables.
-    pub fn write(&mut self, batch: &Batch) -> Result<(), OutputError> {
-        self.runs.write(&output::runs_batch(batch)?)?;
-        self.series.write(&output::series_batch(batch)?)
     }
 
     /// Completes both files; returns their paths (runs first).
     pub fn finish(self) -> Result<[PathBuf; 2], OutputError> {
         Ok([self.runs.finish()?, self.series.finish()?])
+    }
+}
+
+impl Writer for Tables {
+    type Error = OutputError;
+
+    fn write(&mut self, batch: &Batch, profiles: &[usize]) -> Result<(), OutputError> {
+        let [runs, series] = tables(batch, self.seeds, &self.names, profiles)?;
+        self.runs.write(&runs)?;
+        self.series.write(&series)
     }
 }
 

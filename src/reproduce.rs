@@ -10,23 +10,21 @@
 //! - task 2 (20,000 steps): the four controllers without interaction and with both interaction
 //!   types at budget [`TASK2_BUDGET`] (the paper gives no exact task-2 budget: "several hundred").
 
-use std::collections::BTreeMap;
 use std::fmt::Write as _;
+use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
 use std::time::Instant;
 
 use anyhow::{Context, Result};
 
 use crate::analysis::stats::{self, Alternative};
-use crate::batch::{Batch, Checkpoint, RunConfig, RunStats};
-use crate::env;
+use crate::batch::{Batch, Checkpoint, RunStats};
 use crate::output;
-use crate::params::{
-    Controller, HumanParams, Interaction, Params, Profile, Selection, paper_budget,
-};
+use crate::params::{Controller, Interaction, Profile, Selection, paper_budget};
 use crate::pipeline;
 use crate::plot;
+use crate::sweep::store::RunSet;
+use crate::sweep::{RunError, Shard, Sweep, runner};
 
 /// Budgets of the task-1 budget scan (0 is the no-interaction condition).
 pub const FULL_BUDGETS: [u32; 7] = [10, 20, 30, 50, 100, 200, 300];
@@ -260,39 +258,54 @@ fn conditions(scale: &Scale) -> Vec<Condition> {
     out
 }
 
-fn params_of(condition: &Condition, scale: &Scale) -> Params {
-    let profile = match (condition.interaction, condition.task) {
-        (Interaction::None, _) => Profile::None,
-        (Interaction::Congratulation, "tidy1")
-            if condition.budget == paper_budget(condition.controller, condition.interaction) =>
-        {
-            Profile::PaperCongratulation
-        }
-        (Interaction::Takeover, "tidy1")
-            if condition.budget == paper_budget(condition.controller, condition.interaction) =>
-        {
-            Profile::PaperTakeover
-        }
+/// The profile a condition's runs name: the paper's human where it has the paper's budget on
+/// task 1, a custom one at other budgets.
+fn profile_of(condition: &Condition) -> Profile {
+    let paper = condition.task == "tidy1"
+        && condition.budget == paper_budget(condition.controller, condition.interaction);
+    match condition.interaction {
+        Interaction::None => Profile::None,
+        Interaction::Congratulation if paper => Profile::PaperCongratulation,
+        Interaction::Takeover if paper => Profile::PaperTakeover,
         _ => Profile::Custom,
-    };
-    Params {
-        controller: condition.controller,
-        selection: condition.selection,
-        human: HumanParams {
-            interaction: condition.interaction,
-            budget: condition.budget,
-            ..HumanParams::default()
-        },
-        profile,
-        steps: if condition.task == "tidy2" {
-            scale.steps_task2
-        } else {
-            scale.steps_task1
-        },
-        babbling: scale.babbling,
-        checkpoint: scale.checkpoint,
-        ..Params::default()
     }
+}
+
+/// The conditions as a sweep file: one `[[zip]]` entry per condition, in order, so that run `r`
+/// of the sweep is run `r % runs` of condition `r / runs`.
+fn sweep_text(conditions: &[Condition], scale: &Scale, seed: u64, quick: bool) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "# The conditions of `mbmf reproduce{}` (seed {seed}); `mbmf sweep` runs them again.",
+        if quick { " --quick" } else { "" }
+    );
+    let _ = writeln!(s, "seeds = {}\nmaster_seed = {seed}\n", scale.runs);
+    let _ = writeln!(s, "[fixed]\nbabbling = {}", scale.babbling);
+    let _ = writeln!(s, "checkpoint = {}\n\n[[zip]]", scale.checkpoint);
+    let value = |key: &str, c: &Condition| match key {
+        "task" => format!("{:?}", c.task),
+        "controller" => format!("{:?}", c.controller.name()),
+        "selection" => format!("{:?}", c.selection.name()),
+        "interaction" => format!("{:?}", c.interaction.name()),
+        "budget" => c.budget.to_string(),
+        "steps" if c.task == "tidy2" => scale.steps_task2.to_string(),
+        "steps" => scale.steps_task1.to_string(),
+        _ => format!("{:?}", profile_of(c).name()),
+    };
+    let keys = [
+        "task",
+        "controller",
+        "selection",
+        "interaction",
+        "budget",
+        "steps",
+    ];
+    for key in keys.into_iter().chain(["profile"]) {
+        let values: Vec<String> = conditions.iter().map(|c| value(key, c)).collect();
+        let _ = writeln!(s, "{key} = [{}]", values.join(", "));
+    }
+    s
 }
 
 /// Runs the paper's experiments into `options.out` and writes the report; `total` is told the
@@ -332,6 +345,11 @@ fn write_atomic(path: &Path, text: &str) -> Result<()> {
         .map_err(|(p, e)| anyhow::Error::new(e).context(format!("cannot write {}", p.display())))
 }
 
+/// Runs per batch of a reproduction.
+const BATCH_SIZE: usize = 1024;
+
+/// Runs the conditions as an in-memory sweep (also written as `sweep.toml`) into
+/// `data/runs.parquet` and `data/series.parquet`, keeping every run's results per condition.
 fn simulate_all(
     args: &Options,
     scale: &Scale,
@@ -339,10 +357,27 @@ fn simulate_all(
     mut progress: impl FnMut(u64),
 ) -> Result<Vec<Outcome>> {
     let conditions = conditions(scale);
+    let text = sweep_text(&conditions, scale, args.seed, args.quick);
+    let file = args.out.join("sweep.toml");
+    let sweep = Sweep::parse(&file.display().to_string(), &args.out, &text)?;
+    let specs = sweep.load_specs()?;
     let data = args.out.join("data");
     std::fs::create_dir_all(&data)
         .with_context(|| format!("cannot create output folder {}", data.display()))?;
-    let mut tables = pipeline::Tables::new(&data, output::pair_metadata(args.seed));
+    write_atomic(&file, &text)?;
+    let seeds = u64::from(sweep.seeds);
+    total(
+        (0..sweep.configurations())
+            .map(|c| seeds * pipeline::run_steps(&sweep.resolve(c).params))
+            .sum(),
+    );
+    let metadata = runner::metadata(&sweep, Shard::ALL);
+    let names = sweep.profile_names.clone();
+    let mut job = pipeline::Job {
+        schedules: &sweep.schedules,
+        batch_size: BATCH_SIZE,
+        writer: pipeline::Tables::new(&data, metadata, seeds, names),
+    };
     let mut outcomes: Vec<Outcome> = conditions
         .iter()
         .map(|&condition| Outcome {
@@ -351,44 +386,22 @@ fn simulate_all(
             series: Vec::new(),
         })
         .collect();
-    let mut configs_by_task: BTreeMap<&str, Vec<(usize, RunConfig)>> = BTreeMap::new();
-    let mut run_index = 0u64;
-    for (ci, condition) in conditions.iter().enumerate() {
-        let params = params_of(condition, scale);
-        for _ in 0..scale.runs {
-            configs_by_task.entry(condition.task).or_default().push((
-                ci,
-                RunConfig {
-                    params,
-                    seed: args.seed,
-                    run_index,
-                },
-            ));
-            run_index += 1;
-        }
-    }
-    let all: Vec<RunConfig> = configs_by_task
-        .values()
-        .flatten()
-        .map(|(_, c)| *c)
-        .collect();
-    total(pipeline::agent_steps(&all));
-    for (task, entries) in &configs_by_task {
-        let spec = Arc::new(env::load(task)?);
-        let configs: Vec<RunConfig> = entries.iter().map(|(_, c)| *c).collect();
-        let mut next = 0;
-        pipeline::simulate(&spec, &configs, 1024, &mut progress, |batch: &Batch| {
-            tables.write(batch)?;
-            for r in 0..batch.len() {
-                let outcome = &mut outcomes[entries[next].0];
+    let none = RunSet::new(sweep.runs());
+    runner::plan(&sweep, Shard::ALL, &none, BATCH_SIZE, |task, group| {
+        let progress = |n| {
+            progress(n);
+            ControlFlow::Continue(())
+        };
+        job.simulate(&specs[task], &group, progress, |batch: &Batch| {
+            for (r, config) in batch.configs().iter().enumerate() {
+                let outcome = &mut outcomes[(config.run_index / seeds) as usize];
                 outcome.runs.push(batch.stats()[r]);
                 outcome.series.push(batch.series(r).to_vec());
-                next += 1;
             }
-            Ok::<(), anyhow::Error>(())
-        })?;
-    }
-    tables.finish()?;
+            Ok::<(), RunError>(())
+        })
+    })?;
+    job.writer.finish()?;
     Ok(outcomes)
 }
 
@@ -406,11 +419,7 @@ fn min_budgets(data: &Path) -> Result<Vec<MinBudgetRow>> {
     let mut rows = Vec::new();
     for interaction in [Interaction::Congratulation, Interaction::Takeover] {
         for &c in &CONTROLLERS {
-            let name = if interaction == Interaction::Takeover {
-                "takeover"
-            } else {
-                "congratulation"
-            };
+            let name = interaction.name();
             let group = (0..found.groups.len()).find(|&g| {
                 text(g, "task") == "tidy1"
                     && text(g, "controller") == c.name()
@@ -670,22 +679,10 @@ impl Report<'_> {
         // Claim 4.
         let ec = t1(Ec);
         let (_, p_mb, _) = ec.curve(|c| c.p_mb_mean);
-        let first = p_mb
-            .iter()
-            .copied()
-            .find(|v| v.is_finite())
-            .unwrap_or(f64::NAN);
-        let last = p_mb
-            .iter()
-            .rev()
-            .copied()
-            .find(|v| v.is_finite())
-            .unwrap_or(f64::NAN);
-        let peak = p_mb
-            .iter()
-            .copied()
-            .filter(|v| v.is_finite())
-            .fold(f64::NAN, f64::max);
+        let finite: Vec<f64> = p_mb.into_iter().filter(|v| v.is_finite()).collect();
+        let first = finite.first().copied().unwrap_or(f64::NAN);
+        let last = finite.last().copied().unwrap_or(f64::NAN);
+        let peak = finite.iter().copied().fold(f64::NAN, f64::max);
         claims.push(Claim {
             id: "4",
             text: "EC: MB has most of the control right after babbling; MF takes over later (Fig. 4).",
@@ -823,10 +820,7 @@ impl Report<'_> {
                 ev,
                 "{} {}: {} (paper {}){}. ",
                 c.name().to_uppercase(),
-                match interaction {
-                    Interaction::Takeover => "takeover",
-                    _ => "congratulation",
-                },
+                interaction.name(),
                 found.map_or("none found".to_string(), |b| b.to_string()),
                 paper,
                 if monotone { "" } else { ", rule not monotone" }
@@ -904,7 +898,7 @@ impl Report<'_> {
         use Interaction::{Congratulation, None as NoHuman, Takeover};
         let dir = self.args.out.join("figures");
         let mut out = Vec::new();
-        let mut add = |caption: String, paths: Vec<PathBuf>| {
+        let mut add = |(caption, paths): (String, Vec<PathBuf>)| {
             if let Some(png) = paths
                 .into_iter()
                 .find(|p| p.extension().is_some_and(|e| e == "png"))
@@ -937,17 +931,11 @@ impl Report<'_> {
                         }
                     })
                     .collect();
-                let chart = plot::LineChart {
-                    title: format!("{name}: {what} accumulation without interaction (mean ± s.e.)"),
-                    x_label: "experiment step".into(),
-                    y_label: y_label.into(),
-                    series,
-                    log_x: false,
-                    log_y: what == "cost",
-                    x_marks: Vec::new(),
-                };
+                let title =
+                    format!("{name}: {what} accumulation without interaction (mean ± s.e.)");
                 let path = dir.join(format!("fig{fig}_{task}_{what}_curves"));
-                add(chart.title.clone(), plot::line_chart(&chart, &path)?);
+                let (x, log_y) = ("experiment step", what == "cost");
+                add(lines(title, [x, y_label], series, log_y, &path)?);
             }
             // Bars: total reward and cost, none vs each interaction, with significance marks.
             for (what, metric) in [("reward", 0usize), ("cost", 1usize)] {
@@ -995,10 +983,7 @@ impl Report<'_> {
                             } else {
                                 self.scale.steps_task2
                             },
-                            match interaction {
-                                Takeover => "takeover",
-                                _ => "congratulation",
-                            }
+                            interaction.name()
                         ),
                         y_label: if metric == 0 {
                             "total reward".into()
@@ -1010,18 +995,15 @@ impl Report<'_> {
                     };
                     let path = dir.join(format!(
                         "fig{fig}_{task}_{what}_bars_{}",
-                        match interaction {
-                            Takeover => "takeover",
-                            _ => "congratulation",
-                        }
+                        interaction.name()
                     ));
-                    add(
+                    add((
                         format!(
                             "{} Wilcoxon-Mann-Whitney two-sided: *** p<0.001, ** p<0.01, * p<0.05.",
                             chart.title
                         ),
                         plot::bar_chart(&chart, &path)?,
-                    );
+                    ));
                 }
             }
         }
@@ -1034,33 +1016,27 @@ impl Report<'_> {
                 plot::Series {
                     // Labels without the controller's name get distinct colours.
                     label: match i {
-                        NoHuman => "no interaction",
-                        Congratulation => "congratulation",
-                        _ => "takeover",
-                    }
-                    .to_string(),
+                        NoHuman => "no interaction".to_string(),
+                        _ => i.name().to_string(),
+                    },
                     x: keep.iter().map(|&k| x[k]).collect(),
                     y: keep.iter().map(|&k| y[k]).collect(),
                     band: Some(keep.iter().map(|&k| se[k]).collect()),
                 }
             })
             .collect();
-        let chart = plot::LineChart {
-            title: format!(
-                "Task 1: EC's probability of selecting MB ({}-step window means, mean ± s.e.)",
-                self.scale.checkpoint
-            ),
-            x_label: "experiment step".into(),
-            y_label: "P(MB)".into(),
-            series,
-            log_x: false,
-            log_y: false,
-            x_marks: Vec::new(),
-        };
-        add(
-            chart.title.clone(),
-            plot::line_chart(&chart, &dir.join("fig4_tidy1_ec_p_mb"))?,
+        let title = format!(
+            "Task 1: EC's probability of selecting MB ({}-step window means, mean ± s.e.)",
+            self.scale.checkpoint
         );
+        let path = dir.join("fig4_tidy1_ec_p_mb");
+        add(lines(
+            title,
+            ["experiment step", "P(MB)"],
+            series,
+            false,
+            &path,
+        )?);
         // Claim 6: total reward against budget.
         for interaction in [Congratulation, Takeover] {
             let series = CONTROLLERS
@@ -1090,27 +1066,35 @@ impl Report<'_> {
                     }
                 })
                 .collect();
-            let kind = if interaction == Takeover {
-                "takeover"
-            } else {
-                "congratulation"
-            };
-            let chart = plot::LineChart {
-                title: format!("Task 1: total reward against the {kind} budget (mean ± s.e.)"),
-                x_label: "budget (interactions per run)".into(),
-                y_label: "total reward".into(),
-                series,
-                log_x: false,
-                log_y: false,
-                x_marks: Vec::new(),
-            };
-            add(
-                chart.title.clone(),
-                plot::line_chart(&chart, &dir.join(format!("budget_{kind}")))?,
-            );
+            let kind = interaction.name();
+            let title = format!("Task 1: total reward against the {kind} budget (mean ± s.e.)");
+            let labels = ["budget (interactions per run)", "total reward"];
+            let path = dir.join(format!("budget_{kind}"));
+            add(lines(title, labels, series, false, &path)?);
         }
         Ok(out)
     }
+}
+
+/// Draws a line chart of `series` (linear x; axis labels x then y) into `path`; returns its
+/// title with the files written.
+fn lines(
+    title: String,
+    [x_label, y_label]: [&str; 2],
+    series: Vec<plot::Series>,
+    log_y: bool,
+    path: &Path,
+) -> Result<(String, Vec<PathBuf>)> {
+    let chart = plot::LineChart {
+        title,
+        x_label: x_label.into(),
+        y_label: y_label.into(),
+        series,
+        log_x: false,
+        log_y,
+        x_marks: Vec::new(),
+    };
+    Ok((chart.title.clone(), plot::line_chart(&chart, path)?))
 }
 
 fn verdict(checks: &[bool]) -> &'static str {

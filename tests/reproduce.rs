@@ -1,7 +1,9 @@
-//! `mbmf reproduce --quick` end to end: data, every figure, and a report that goes through every
-//! claim of SPEC 9 with a verdict.
+//! `mbmf reproduce --quick` end to end: data, every figure, a report that goes through every
+//! claim of SPEC 9 with a verdict, and the sweep file of its conditions.
 
 use std::process::Command;
+
+mod common;
 
 #[test]
 fn quick_reproduction_writes_data_figures_and_a_verdict_for_every_claim() {
@@ -73,13 +75,27 @@ fn quick_reproduction_writes_data_figures_and_a_verdict_for_every_claim() {
         "per task: 2 curves and 4 bar charts; figure 4; two budget scans"
     );
 
-    // The data behind it: 4 runs per condition.
-    for table in ["runs.parquet", "series.parquet"] {
-        assert!(
-            std::fs::metadata(out.join("data").join(table))
-                .unwrap()
-                .len()
-                > 0
+    // The data behind it: 4 runs per condition, numbered as a sweep numbers them.
+    let data = out.join("data");
+    let mut runs = common::file_rows(&data.join("runs.parquet"), common::NONDETERMINISTIC);
+    assert_eq!(runs.len(), 27 * 4, "27 conditions of 4 runs");
+    for row in &runs {
+        let n = |c: &str| row[c].parse::<u64>().unwrap();
+        assert_eq!(
+            n("run_index"),
+            n("config_index") * 4 + n("seed_index"),
+            "{row:?}"
         );
     }
+    // The conditions are a sweep, written beside the data: `mbmf sweep` runs the same runs.
+    let sweep = out.join("sweep.toml");
+    let again = dir.path().join("again");
+    let (sweep, again_arg) = (sweep.to_str().unwrap(), again.to_str().unwrap());
+    common::run_ok(&["sweep", sweep, "--out", again_arg, "--quiet"]);
+    let (swept_runs, swept_series) = common::dataset(&again);
+    common::sort_rows(&mut runs);
+    common::assert_same_rows("reproduce's runs vs its sweep", &runs, &swept_runs);
+    let mut series = common::file_rows(&data.join("series.parquet"), common::NONDETERMINISTIC);
+    common::sort_rows(&mut series);
+    common::assert_same_rows("reproduce's series vs its sweep", &series, &swept_series);
 }

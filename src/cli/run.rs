@@ -76,26 +76,13 @@ pub struct RunArgs {
     pub change: Vec<String>,
 }
 
-/// Builds the configurations of `mbmf run`: for each controller, `runs` runs with consecutive
-/// run indices (controller-major). Every parameter is validated.
-pub fn run_configs(args: &RunArgs) -> Result<Vec<RunConfig>> {
-    Ok(expand(args, &controller_params(args)?))
-}
-
-/// The runs of `params` (one entry per controller), `args.runs` each, numbered controller-major.
-fn expand(args: &RunArgs, params: &[Params]) -> Vec<RunConfig> {
-    let total = params.len() as u64 * u64::from(args.runs);
-    (0..total).map(|i| config_at(args, params, i)).collect()
-}
-
-/// Run `i` of [`expand`], built on demand so that memory does not grow with `--runs`.
+/// Run `i` of `mbmf run`: its runs are `--runs` runs of each controller in turn (a controller is
+/// a configuration, numbered in `--controller` order), built on demand so that memory does not
+/// grow with `--runs`.
 fn config_at(args: &RunArgs, params: &[Params], i: u64) -> RunConfig {
     let per = u64::from(args.runs);
-    RunConfig {
-        params: params[(i / per) as usize],
-        seed: args.seed,
-        run_index: i,
-    }
+    let config = i / per;
+    pipeline::run_config(params[config as usize], args.seed, config, per, i % per)
 }
 
 /// Batches whose configurations are built at once: enough to keep every thread busy, few
@@ -212,54 +199,37 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
             args.batch_size
         );
     }
-    let [runs_meta, series_meta] = output::pair_metadata(args.seed);
-    let mut runs_sink = output::ParquetSink::new(&staging.0.join("runs.parquet"), runs_meta);
-    let mut series_sink = output::ParquetSink::new(&staging.0.join("series.parquet"), series_meta);
-    let bar = progress::bar(
-        pipeline::agent_steps(&firsts) * u64::from(args.runs),
-        args.quiet,
-        false,
-    );
+    let per = u64::from(args.runs);
+    let mut job = pipeline::Job {
+        schedules: &schedules,
+        batch_size,
+        writer: pipeline::Tables::new(&staging.0, output::metadata(args.seed, None), per, vec![]),
+    };
+    let bar = progress::bar(pipeline::agent_steps(&firsts) * per, args.quiet, false);
     let mut summary = Summary::new(&args.out);
     let started = std::time::Instant::now();
-    let per = u64::from(args.runs);
-    let mut progress = |n| {
-        bar.inc(n);
-        pipeline::unless_stopped(stop)
-    };
-    let mut on_batch = |batch: &Batch| {
-        runs_sink.write(&output::with_run_indices(output::runs_batch(batch)?, per)?)?;
-        series_sink.write(&output::with_run_indices(
-            output::series_batch(batch)?,
-            per,
-        )?)?;
-        summary.add(batch)?;
-        Ok::<(), anyhow::Error>(())
-    };
     // Windows are whole batches, so batches are cut where one call over every run cuts them.
     let window = batch_size.saturating_mul(BATCHES_PER_WINDOW) as u64;
-    let run_schedule = vec![0; window.min(total) as usize];
     let mut simulated = Ok(());
     let mut start = 0;
     while start < total && simulated.is_ok() {
         let end = start.saturating_add(window).min(total);
-        let chunk: Vec<RunConfig> = (start..end).map(|i| config_at(args, &params, i)).collect();
-        simulated = pipeline::simulate_with_schedules(
-            &spec,
-            &chunk,
-            &schedules,
-            &run_schedule[..chunk.len()],
-            batch_size,
-            &mut progress,
-            &mut on_batch,
-        );
+        let group = pipeline::Group {
+            configs: (start..end).map(|i| config_at(args, &params, i)).collect(),
+            schedules: vec![0; (end - start) as usize],
+            profiles: Vec::new(),
+        };
+        let progress = |n| {
+            bar.inc(n);
+            pipeline::unless_stopped(stop)
+        };
+        simulated = job.simulate(&spec, &group, progress, |batch| summary.add(batch));
         start = end;
     }
     bar.finish_and_clear();
     simulated.map_err(|e| interrupted(e, &args.out))?;
     let rows = summary.rows().map_err(runtime)?;
-    let runs_staged = runs_sink.finish().map_err(runtime)?;
-    let series_staged = series_sink.finish().map_err(runtime)?;
+    let [runs_staged, series_staged] = job.writer.finish().map_err(runtime)?;
     // The last chance to stop with nothing written: after the commit the run is complete.
     if signal::requested() {
         return Err(interrupted(pipeline::Interrupted.into(), &args.out));
@@ -311,13 +281,8 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
 fn size_up(args: &RunArgs, spec: &Arc<Spec>, params: &[Params]) -> Result<(), Failure> {
     // Memory first (a run that cannot fit is refused whatever the disk), on one run per
     // controller: the batch plan depends on the largest run, not on how many there are.
-    let one_each: Vec<RunConfig> = params
-        .iter()
-        .map(|p| RunConfig {
-            params: *p,
-            seed: args.seed,
-            run_index: 0,
-        })
+    let one_each: Vec<RunConfig> = (0..params.len() as u64)
+        .map(|c| config_at(args, params, c * u64::from(args.runs)))
         .collect();
     pipeline::plan_batch_size(spec, &one_each, args.batch_size).map_err(usage)?;
     let mut size = sizing::Size::default();
@@ -343,19 +308,14 @@ fn size_up(args: &RunArgs, spec: &Arc<Spec>, params: &[Params]) -> Result<(), Fa
     if !size.is_huge() {
         return Ok(());
     }
-    let groups: Vec<sizing::SampleGroup> = params
-        .iter()
-        .enumerate()
-        .map(|(ci, p)| sizing::SampleGroup {
+    let per = u64::from(args.runs);
+    let groups: Vec<sizing::SampleGroup> = (0..params.len() as u64)
+        .map(|c| sizing::SampleGroup {
             task: 0,
-            samples: (0..args.runs.min(2))
-                .map(|r| RunConfig {
-                    params: *p,
-                    seed: args.seed,
-                    run_index: ci as u64 * u64::from(args.runs) + u64::from(r),
-                })
+            samples: (0..per.min(2))
+                .map(|r| config_at(args, params, c * per + r))
                 .collect(),
-            agent_steps: u128::from(args.runs) * (u128::from(p.babbling) + u128::from(p.steps)),
+            agent_steps: u128::from(per) * u128::from(pipeline::run_steps(&params[c as usize])),
         })
         .collect();
     let estimate =

@@ -250,54 +250,6 @@ pub fn series_batch(batch: &Batch) -> Result<RecordBatch, OutputError> {
     cols.finish()
 }
 
-/// `table` with `config_index` and `seed_index` inserted after `master_seed`, taken from each
-/// row's `run_index` for `mbmf run`, whose runs are `runs_per_config` consecutive runs of each
-/// controller in turn: config_index = run_index / runs (the controller's position in
-/// `--controller`), seed_index = run_index % runs (the replicate), as `mbmf sweep` numbers its
-/// configurations and seeds.
-pub fn with_run_indices(
-    table: RecordBatch,
-    runs_per_config: u64,
-) -> Result<RecordBatch, OutputError> {
-    let per = runs_per_config.max(1) as i64;
-    let run_index = table
-        .column_by_name("run_index")
-        .and_then(|c| c.as_any().downcast_ref::<Int64Array>())
-        .ok_or_else(|| arrow::error::ArrowError::SchemaError("no Int64 run_index column".into()))?
-        .clone();
-    insert_indices(
-        table,
-        run_index.values().iter().map(|r| r / per),
-        run_index.values().iter().map(|r| r % per),
-    )
-}
-
-/// `table` with the non-null `config_index` and `seed_index` columns after `master_seed`.
-pub fn insert_indices(
-    table: RecordBatch,
-    config_index: impl Iterator<Item = i64>,
-    seed_index: impl Iterator<Item = i64>,
-) -> Result<RecordBatch, OutputError> {
-    let schema = table.schema();
-    let mut fields: Vec<Field> = Vec::with_capacity(schema.fields().len() + 2);
-    let mut arrays: Vec<ArrayRef> = Vec::with_capacity(fields.capacity());
-    let mut extra = Some((config_index, seed_index));
-    for (field, column) in schema.fields().iter().zip(table.columns()) {
-        fields.push(field.as_ref().clone());
-        arrays.push(Arc::clone(column));
-        if field.name() == "master_seed"
-            && let Some((c, s)) = extra.take()
-        {
-            fields.push(columns::field("config_index", DataType::Int64, false));
-            arrays.push(Arc::new(Int64Array::from_iter_values(c)));
-            fields.push(columns::field("seed_index", DataType::Int64, false));
-            arrays.push(Arc::new(Int64Array::from_iter_values(s)));
-        }
-    }
-    let schema = Arc::new(Schema::new_with_metadata(fields, schema.metadata().clone()));
-    Ok(RecordBatch::try_new(schema, arrays)?)
-}
-
 /// A Parquet file being written under a temporary name, renamed into place by [`finish`].
 ///
 /// [`finish`]: ParquetSink::finish
@@ -411,14 +363,41 @@ pub fn write_parquet(
     sink.finish()
 }
 
-/// The metadata of a runs file and a series file written together by one command (`mbmf run`,
-/// `mbmf reproduce`): the provenance, the master seed and the run id they share.
-pub fn pair_metadata(master_seed: u64) -> [Vec<(String, String)>; 2] {
-    let mut runs = provenance(provenance::RUNS_SCHEMA, &Context::default());
-    runs.push(("master_seed".to_string(), master_seed.to_string()));
-    runs.push((atomic::RUN_ID_KEY.to_string(), atomic::new_run_id()));
-    let series = with_schema(&runs, provenance::SERIES_SCHEMA);
-    [runs, series]
+/// The sweep a results file comes from.
+#[derive(Debug, Clone, Copy)]
+pub struct SweepOrigin<'a> {
+    /// The sweep file's text.
+    pub text: &'a str,
+    /// The sweep file as named on the command line.
+    pub file: &'a str,
+    /// Runs of the whole sweep.
+    pub runs: u64,
+    /// Runs per configuration.
+    pub seeds: u32,
+    /// Shard `I/N` of the sweep, when not the whole sweep.
+    pub shard: Option<(u32, u32)>,
+}
+
+/// The key-value metadata of every results file of one command (`run`, `sweep`, `reproduce`):
+/// the provenance, the sweep it comes from (if any) and the master seed. Its `mbmf_schema` is
+/// the runs table's; [`with_schema`] gives the series table's.
+pub fn metadata(master_seed: u64, sweep: Option<&SweepOrigin<'_>>) -> Vec<(String, String)> {
+    let context = Context {
+        started: None,
+        shard: sweep.and_then(|s| s.shard),
+        sweep_text: sweep.map(|s| s.text),
+    };
+    let mut kv = provenance(provenance::RUNS_SCHEMA, &context);
+    if let Some(s) = sweep {
+        kv.push(("mbmf_sweep".to_string(), s.text.to_string()));
+        kv.push(("mbmf_sweep_file".to_string(), s.file.to_string()));
+    }
+    kv.push(("master_seed".to_string(), master_seed.to_string()));
+    if let Some(s) = sweep {
+        kv.push(("mbmf_sweep_runs".to_string(), s.runs.to_string()));
+        kv.push(("mbmf_sweep_seeds".to_string(), s.seeds.to_string()));
+    }
+    kv
 }
 
 /// `metadata` with its `mbmf_schema` entry set to `schema` (added if absent).

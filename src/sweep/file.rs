@@ -490,7 +490,7 @@ impl Parser<'_> {
     fn check_profile_uses(&self) -> Result<(), SweepError> {
         for (name, span, section) in &self.profile_uses {
             let defined = self.profiles.iter().any(|u| &u.name == name);
-            if !defined && !builtin_profile_names().contains(&name.as_str()) {
+            if !defined && name != "custom" && !builtin_profile_names().contains(&name.as_str()) {
                 let mut names = builtin_profile_names();
                 names.extend(self.profiles.iter().map(|u| u.name.as_str()));
                 return Err(self.src.err(

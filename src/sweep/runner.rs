@@ -2,22 +2,19 @@
 //! missing runs into batches of heterogeneous runs of one task, simulate each batch and write it
 //! as one part. Only one batch is in memory at a time.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::AtomicBool;
 use std::time::Instant;
-
-use arrow::array::{ArrayRef, RecordBatch, StringArray};
-use arrow::datatypes::{DataType, Field, Schema};
 
 use super::file::Sweep;
 use super::shard::Shard;
 use super::store::{self, Lock, StoreError};
-use crate::batch::{Batch, RunConfig};
+use crate::batch::Batch;
 use crate::env::Spec;
 use crate::output::{self, OutputError};
 use crate::params::ConfigError;
-use crate::pipeline;
+use crate::pipeline::{self, Group};
 
 /// How to run a sweep.
 #[derive(Debug, Clone)]
@@ -144,108 +141,67 @@ impl Report {
     }
 }
 
-/// Key-value metadata of every part file written by `shard`: the provenance, then the sweep.
+/// Key-value metadata of every file written for `shard` of `sweep`: the provenance, the sweep.
 pub fn metadata(sweep: &Sweep, shard: Shard) -> Vec<(String, String)> {
-    let context = output::Context {
-        started: None,
+    let origin = output::SweepOrigin {
+        text: &sweep.text,
+        file: &sweep.file,
+        runs: sweep.runs(),
+        seeds: sweep.seeds,
         shard: (shard != Shard::ALL).then_some((shard.index, shard.count)),
-        sweep_text: Some(&sweep.text),
     };
-    let mut kv = output::provenance(output::provenance::RUNS_SCHEMA, &context);
-    kv.extend([
-        ("mbmf_sweep".to_string(), sweep.text.clone()),
-        ("mbmf_sweep_file".to_string(), sweep.file.clone()),
-        ("master_seed".to_string(), sweep.master_seed.to_string()),
-        ("mbmf_sweep_runs".to_string(), sweep.runs().to_string()),
-        ("mbmf_sweep_seeds".to_string(), sweep.seeds.to_string()),
-    ]);
-    kv
+    output::metadata(sweep.master_seed, Some(&origin))
 }
 
-/// A batch being filled: the runs and, for each, its configuration and seed index.
-#[derive(Default)]
-struct Pending {
-    configs: Vec<RunConfig>,
-    meta: Vec<(u64, u32, usize)>,
-    /// Per run, its index into the sweep's schedules.
-    schedules: Vec<usize>,
+/// A sweep's dataset folder, written one part (a runs file and a series file) per batch.
+struct Parts<'a> {
+    sweep: &'a Sweep,
+    dir: &'a Path,
+    metadata: Vec<(String, String)>,
 }
 
-/// Adds the sweep's own columns to a table from [`output`]: `config_index` and `seed_index`
-/// after `master_seed`, and the `profile` column with the sweep's profile names (user-defined profiles
-/// are `custom` to the engine).
-fn decorate(
-    table: RecordBatch,
-    rows: &[(u64, u32, usize)],
-    sweep: &Sweep,
-) -> Result<RecordBatch, OutputError> {
-    let schema = table.schema();
-    let mut fields: Vec<Field> = Vec::with_capacity(schema.fields().len() + 2);
-    let mut columns: Vec<ArrayRef> = Vec::with_capacity(fields.capacity());
-    for (field, column) in schema.fields().iter().zip(table.columns()) {
-        if field.name() == "profile" {
-            let names: StringArray = rows
-                .iter()
-                .map(|r| Some(sweep.profile_names[r.2].as_str()))
-                .collect();
-            fields.push(output::columns::field("profile", DataType::Utf8, false));
-            columns.push(Arc::new(names));
-        } else {
-            fields.push(field.as_ref().clone());
-            columns.push(Arc::clone(column));
-        }
+impl pipeline::Writer for Parts<'_> {
+    type Error = StoreError;
+
+    fn write(&mut self, batch: &Batch, profiles: &[usize]) -> Result<(), StoreError> {
+        let sweep = self.sweep;
+        let indices = batch.configs().iter().map(|c| c.run_index);
+        let (first, last) = (indices.clone().min(), indices.max());
+        let name = store::part_name(first.unwrap_or(0), last.unwrap_or(0), sweep.runs());
+        let seeds = u64::from(sweep.seeds);
+        let [runs, series] = pipeline::tables(batch, seeds, &sweep.profile_names, profiles)?;
+        store::write_part(self.dir, &name, &runs, &series, &self.metadata)
     }
-    let schema = Arc::new(Schema::new_with_metadata(fields, schema.metadata().clone()));
-    output::insert_indices(
-        RecordBatch::try_new(schema, columns)?,
-        rows.iter().map(|r| r.0 as i64),
-        rows.iter().map(|r| i64::from(r.1)),
-    )
-}
-
-/// The runs and series tables of a finished batch, with the sweep's columns.
-pub fn tables(
-    batch: &Batch,
-    meta: &[(u64, u32, usize)],
-    sweep: &Sweep,
-) -> Result<(RecordBatch, RecordBatch), OutputError> {
-    let runs = decorate(output::runs_batch(batch)?, meta, sweep)?;
-    let series_rows: Vec<(u64, u32, usize)> = meta
-        .iter()
-        .enumerate()
-        .flat_map(|(r, m)| std::iter::repeat_n(*m, batch.series(r).len()))
-        .collect();
-    let series = decorate(output::series_batch(batch)?, &series_rows, sweep)?;
-    Ok((runs, series))
 }
 
 /// The runs of `shard` not in `done`, grouped into batches of one task of at most `batch_size`
-/// runs, handed to `emit` one by one (so only a few batches exist at a time).
+/// runs, handed to `emit` one by one with their task's index (so only a few batches exist at a
+/// time).
 ///
 /// A batch holds one value of every text parameter (task, controller, selection, cost model,
 /// interaction, profile), so each part's statistics show a single value and a reader filtering
 /// on one (`controller == "ec"`) skips every other part. A batch is closed before a
 /// configuration that would not fit, so a configuration's runs share a part unless it alone has
-/// more than `batch_size` runs.
-fn plan(
+/// more than `batch_size` runs, and they come in seed order.
+pub fn plan<E>(
     sweep: &Sweep,
     shard: Shard,
     done: &store::RunSet,
     batch_size: usize,
-    mut emit: impl FnMut(usize, Pending) -> Result<(), RunError>,
-) -> Result<(), RunError> {
-    type Group = (usize, [&'static str; 4], usize);
-    let mut pending: std::collections::BTreeMap<Group, Pending> = Default::default();
+    mut emit: impl FnMut(usize, Group) -> Result<(), E>,
+) -> Result<(), E> {
+    type Key = (usize, [&'static str; 4], usize);
+    let mut pending: std::collections::BTreeMap<Key, Group> = Default::default();
     let seeds = u64::from(sweep.seeds);
+    let batch_size = batch_size.max(1);
     for config in shard.configs(sweep.configurations()) {
-        let first = config * seeds;
         let missing = missing_runs(done, config, seeds) as usize;
         if missing == 0 {
             continue;
         }
         let resolved = sweep.resolve(config);
         let p = &resolved.params;
-        let group: Group = (
+        let key: Key = (
             resolved.task,
             [
                 p.controller.name(),
@@ -255,30 +211,21 @@ fn plan(
             ],
             resolved.profile,
         );
-        let p = pending.entry(group).or_default();
-        if !p.configs.is_empty() && p.configs.len() + missing > batch_size {
-            emit(resolved.task, std::mem::take(p))?;
+        let group = pending.entry(key).or_default();
+        if !group.configs.is_empty() && group.configs.len() + missing > batch_size {
+            emit(resolved.task, std::mem::take(group))?;
         }
-        for s in 0..seeds {
-            let run = first + s;
-            if done.contains(run) {
-                continue;
-            }
-            p.configs.push(RunConfig {
-                params: resolved.params,
-                seed: sweep.master_seed,
-                run_index: run,
-            });
-            p.meta.push((config, s as u32, resolved.profile));
-            p.schedules.push(resolved.schedule);
-            if p.configs.len() >= batch_size {
-                emit(resolved.task, std::mem::take(p))?;
+        for s in (0..seeds).filter(|&s| !done.contains(config * seeds + s)) {
+            let run = pipeline::run_config(resolved.params, sweep.master_seed, config, seeds, s);
+            group.push(run, resolved.schedule, resolved.profile);
+            if group.configs.len() >= batch_size {
+                emit(resolved.task, std::mem::take(group))?;
             }
         }
     }
-    for ((task, _, _), p) in pending {
-        if !p.configs.is_empty() {
-            emit(task, p)?;
+    for ((task, _, _), group) in pending {
+        if !group.configs.is_empty() {
+            emit(task, group)?;
         }
     }
     Ok(())
@@ -331,8 +278,7 @@ pub fn execute(
         let missing = missing_runs(&scan.done, config, seeds);
         shard_done += seeds - missing;
         if missing > 0 {
-            let p = sweep.resolve(config).params;
-            steps_to_run += missing * (u64::from(p.babbling) + u64::from(p.steps));
+            steps_to_run += missing * pipeline::run_steps(&sweep.resolve(config).params);
         }
     }
     let to_run = shard_runs - shard_done;
@@ -346,49 +292,29 @@ pub fn execute(
     events(Event::Started {
         agent_steps: steps_to_run,
     });
-    let metadata = metadata(sweep, shard);
+    let mut job = pipeline::Job {
+        schedules: &sweep.schedules,
+        batch_size: options.batch_size.max(1),
+        writer: Parts {
+            sweep,
+            dir: out,
+            metadata: metadata(sweep, shard),
+        },
+    };
     let mut ran = 0u64;
     let mut parts_written = 0usize;
     events(Event::Ran { ran: 0, to_run });
-    plan(
-        sweep,
-        shard,
-        &scan.done,
-        options.batch_size.max(1),
-        |task, pending| {
-            let Pending {
-                configs,
-                meta,
-                schedules,
-            } = pending;
-            let first = configs.iter().map(|c| c.run_index).min().unwrap_or(0);
-            let last = configs.iter().map(|c| c.run_index).max().unwrap_or(0);
-            let name = store::part_name(first, last, total);
-            if stop.load(Ordering::Relaxed) {
-                return Err(pipeline::Interrupted.into());
-            }
-            pipeline::simulate_with_schedules(
-                &specs[task],
-                &configs,
-                &sweep.schedules,
-                &schedules,
-                configs.len(),
-                |n| {
-                    events(Event::Advanced(n));
-                    pipeline::unless_stopped(stop)
-                },
-                |batch: &Batch| {
-                    let (runs, series) = tables(batch, &meta, sweep)?;
-                    store::write_part(out, &name, &runs, &series, &metadata)?;
-                    Ok::<(), RunError>(())
-                },
-            )?;
-            ran += configs.len() as u64;
-            parts_written += 1;
-            events(Event::Ran { ran, to_run });
-            Ok(())
-        },
-    )?;
+    plan(sweep, shard, &scan.done, job.batch_size, |task, group| {
+        let progress = |n| {
+            events(Event::Advanced(n));
+            pipeline::unless_stopped(stop)
+        };
+        job.simulate(&specs[task], &group, progress, |_| Ok::<(), RunError>(()))?;
+        ran += group.configs.len() as u64;
+        parts_written += 1;
+        events(Event::Ran { ran, to_run });
+        Ok::<(), RunError>(())
+    })?;
     Ok(Report {
         out: out.clone(),
         shard,
@@ -422,7 +348,7 @@ pub fn estimate(sweep: &Sweep, specs: &[Arc<Spec>], shard: Shard) -> Result<Esti
     /// Sample runs per group, spread evenly over the group's configurations.
     const SAMPLES: u64 = 8;
     let mut groups: Vec<Group> = Vec::new();
-    let seeds = u128::from(sweep.seeds);
+    let seeds = u64::from(sweep.seeds);
     let group_of = |groups: &[Group], r: &super::file::Resolved| {
         groups
             .iter()
@@ -437,7 +363,7 @@ pub fn estimate(sweep: &Sweep, specs: &[Arc<Spec>], shard: Shard) -> Result<Esti
     let reps = sweep.representatives(shard, &keys, ENUMERATE_LIMIT);
     for &(config, weight) in &reps.configs {
         let r = sweep.resolve(config);
-        let steps = weight * seeds * (u128::from(r.params.babbling) + u128::from(r.params.steps));
+        let steps = weight * u128::from(seeds) * u128::from(pipeline::run_steps(&r.params));
         match group_of(&groups, &r) {
             Some(g) => {
                 groups[g].agent_steps += steps;
@@ -474,10 +400,9 @@ pub fn estimate(sweep: &Sweep, specs: &[Arc<Spec>], shard: Shard) -> Result<Esti
             samples: g
                 .samples
                 .iter()
-                .map(|&config| RunConfig {
-                    params: sweep.resolve(config).params,
-                    seed: sweep.master_seed,
-                    run_index: config * u64::from(sweep.seeds),
+                .map(|&config| {
+                    let params = sweep.resolve(config).params;
+                    pipeline::run_config(params, sweep.master_seed, config, seeds, 0)
                 })
                 .collect(),
             agent_steps: g.agent_steps,

@@ -182,6 +182,17 @@ fn host_name() -> String {
         .unwrap_or_else(|_| "unknown-host".into())
 }
 
+/// The refusal of `dir`, whose lock file `path` (open as `file`) another process holds.
+fn locked(dir: &Path, file: &mut File, path: PathBuf) -> StoreError {
+    let mut content = String::new();
+    let _ = file.read_to_string(&mut content);
+    StoreError::Locked {
+        dir: dir.to_path_buf(),
+        holder: describe_holder(&content),
+        lock: path,
+    }
+}
+
 fn describe_holder(content: &str) -> String {
     let field = |k: &str| {
         content
@@ -224,15 +235,7 @@ impl Lock {
                 .map_err(io("create lock file", &path))?;
             match file.try_lock() {
                 Ok(()) => {}
-                Err(fs::TryLockError::WouldBlock) => {
-                    let mut content = String::new();
-                    let _ = file.read_to_string(&mut content);
-                    return Err(StoreError::Locked {
-                        dir: dir.to_path_buf(),
-                        holder: describe_holder(&content),
-                        lock: path,
-                    });
-                }
+                Err(fs::TryLockError::WouldBlock) => return Err(locked(dir, &mut file, path)),
                 Err(fs::TryLockError::Error(e)) => return Err(io("lock", &path)(e)),
             }
             // The previous holder may have removed the file between our open and our lock:
@@ -791,13 +794,7 @@ pub fn compact(dir: &Path, target_runs: u64) -> Result<Compacted, StoreError> {
         if let Ok(mut f) = OpenOptions::new().read(true).write(true).open(&path)
             && let Err(fs::TryLockError::WouldBlock) = f.try_lock()
         {
-            let mut content = String::new();
-            let _ = f.read_to_string(&mut content);
-            return Err(StoreError::Locked {
-                dir: dir.to_path_buf(),
-                holder: describe_holder(&content),
-                lock: path,
-            });
+            return Err(locked(dir, &mut f, path));
         }
     }
     let (lock, _) = Lock::acquire(dir, Shard::ALL)?;
