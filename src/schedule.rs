@@ -423,6 +423,13 @@ impl Plan {
     }
 }
 
+/// Adds `world` to the plan's worlds: the action that moves a run into it, with `goal`.
+fn enter(worlds: &mut Vec<Arc<Spec>>, world: Arc<Spec>, goal: StateId) -> Action {
+    worlds.push(world);
+    let world = (worlds.len() - 1) as u16;
+    Action::World { world, goal }
+}
+
 /// Checks `schedule` against the task `spec` (named `task`) for a run with `params`, loading
 /// every world it names, before anything runs (SPEC 10): steps in 1..=steps, worlds with the
 /// same spaces, goals that exist and are not initial states, deletions of pairs the world has,
@@ -450,7 +457,6 @@ pub fn compile(
         Arc::clone(spec)
     };
     worlds.push(Arc::clone(&start));
-    let mut current = 0usize;
     let mut goal = start.goal;
     let has_human = start.human.is_some();
     let mut nuisance = params.human.interaction == Interaction::Nuisance;
@@ -476,7 +482,7 @@ pub fn compile(
                     ));
                 }
                 let loaded = env::load(name).map_err(|e| fail(&event, e.to_string()))?;
-                let here = &worlds[current];
+                let here = &worlds[worlds.len() - 1];
                 if (loaded.n_states, loaded.n_actions) != (here.n_states, here.n_actions) {
                     return Err(fail(
                         &event,
@@ -492,12 +498,7 @@ pub fn compile(
                 world.goal = here.goal;
                 world.goal_reward = here.goal_reward;
                 world.initial_states = here.initial_states.clone();
-                worlds.push(Arc::new(world));
-                current = worlds.len() - 1;
-                Action::World {
-                    world: current as u16,
-                    goal,
-                }
+                enter(&mut worlds, Arc::new(world), goal)
             }
             Event::Goal { state, reward } => {
                 if !is_json {
@@ -511,7 +512,7 @@ pub fn compile(
                     };
                     return Err(fail(&event, reason));
                 }
-                let here = &worlds[current];
+                let here = &worlds[worlds.len() - 1];
                 if *state as usize >= here.n_states {
                     return Err(fail(
                         &event,
@@ -555,12 +556,7 @@ pub fn compile(
                 }
                 let world = Arc::new(tidy::build_with(tidy::Variant::Task1, *boxes));
                 goal = world.goal;
-                worlds.push(world);
-                current = worlds.len() - 1;
-                Action::World {
-                    world: current as u16,
-                    goal,
-                }
+                enter(&mut worlds, world, goal)
             }
             Event::Delete(pairs) => {
                 if !is_json {
@@ -569,13 +565,9 @@ pub fn compile(
                         format!("deleting transitions needs a json: task, not '{task}'"),
                     ));
                 }
-                let world = delete(&worlds[current], pairs).map_err(|r| fail(&event, r))?;
-                worlds.push(Arc::new(world));
-                current = worlds.len() - 1;
-                Action::World {
-                    world: current as u16,
-                    goal,
-                }
+                let world =
+                    delete(&worlds[worlds.len() - 1], pairs).map_err(|r| fail(&event, r))?;
+                enter(&mut worlds, Arc::new(world), goal)
             }
             Event::Interaction(i) => {
                 if *i != Interaction::None && !has_human {

@@ -766,22 +766,7 @@ fn outputs_and_special_inputs_are_checked_before_any_work() {
     let fixtures = Fixtures::new();
     let dir = fixtures.dir.path();
     let dataset = dir.join("ds");
-    let output = Command::new(env!("CARGO_BIN_EXE_mbmf"))
-        .args([
-            "run",
-            "--quiet",
-            "--runs",
-            "2",
-            "--steps",
-            "50",
-            "--babbling",
-            "5",
-        ])
-        .arg("--out")
-        .arg(&dataset)
-        .output()
-        .expect("the binary runs");
-    assert_eq!(output.status.code(), Some(0), "{output:?}");
+    tiny_run(dataset.to_str().unwrap(), &[]);
     std::fs::write(
         dir.join("s.toml"),
         "seeds = 1\n[fixed]\nsteps = 20\nbabbling = 5\n[grid]\ncontroller = [\"mf\", \"ec\"]\n",
@@ -1082,40 +1067,31 @@ fn mbmf_ok(args: &[&str]) -> String {
     String::from_utf8_lossy(&output.stderr).into_owned()
 }
 
+/// `mbmf run` of two 50-step runs (5 of babbling) into `out`: a dataset for the verbs to read.
+fn tiny_run(out: &str, extra: &[&str]) {
+    let args = [
+        "run",
+        "--quiet",
+        "--runs",
+        "2",
+        "--steps",
+        "50",
+        "--babbling",
+        "5",
+    ];
+    mbmf_ok(&[&args[..], extra, &["--out", out]].concat());
+}
+
 #[test]
 fn analyses_refuse_mixed_foreign_and_unfinished_datasets_naming_the_file() {
     let fixtures = Fixtures::new();
     let dir = fixtures.dir.path();
     let d = |name: &str| dir.join(name).display().to_string();
     let run = d("r");
-    mbmf_ok(&[
-        "run",
-        "--quiet",
-        "--controller",
-        "mf,ec",
-        "--runs",
-        "2",
-        "--steps",
-        "50",
-        "--babbling",
-        "5",
-        "--out",
-        &run,
-    ]);
+    tiny_run(&run, &["--controller", "mf,ec"]);
     // The series file of another run in an mbmf run folder: the pair would mix two runs.
     let other = d("r2");
-    mbmf_ok(&[
-        "run",
-        "--quiet",
-        "--runs",
-        "2",
-        "--steps",
-        "50",
-        "--babbling",
-        "5",
-        "--out",
-        &other,
-    ]);
+    tiny_run(&other, &[]);
     std::fs::create_dir_all(dir.join("mixed")).expect("a folder");
     std::fs::copy(dir.join("r/runs.parquet"), dir.join("mixed/runs.parquet")).expect("copy");
     std::fs::copy(

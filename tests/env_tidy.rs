@@ -1,6 +1,7 @@
 //! The environments of SPEC 2: the tidy tasks' sizes, ids, dynamics and human tables checked
 //! against an independent statement of the rules, the tidy1 fixture in the authors' format, the
-//! JSON export round trip through the binary, and table invariants of every world.
+//! JSON export round trip through the binary, the authors' navigation world as loaded, and table
+//! invariants of every world.
 
 mod common;
 
@@ -488,6 +489,48 @@ fn every_state_action_pair_has_cumulative_probabilities_ending_at_1() {
     for spec in &specs {
         check_invariants(spec);
     }
+}
+
+#[test]
+fn loads_the_authors_navworld_with_its_repeated_outcome_merged() {
+    if common::navworld_task().is_none() {
+        return;
+    }
+    let paths = env::JsonPaths::beside(common::NAVWORLD);
+    let spec = env::json::load(&paths, "json:navworld").expect("navworld loads");
+    assert_eq!((spec.n_states, spec.n_actions), (38, 8));
+    assert_eq!(spec.initial_states, vec![0, 32]);
+    assert_eq!((spec.goal, spec.goal_reward), (18, 1.0));
+    assert_eq!(spec.state_names[37], "s37");
+    assert!(spec.human.is_none());
+    check_invariants(&spec);
+
+    // The file lists (32, 4) -> 14 twice; the spec holds one outcome with the summed count.
+    let text = std::fs::read_to_string(&paths.model).expect("read navworld");
+    let root: serde_json::Value = serde_json::from_str(&text).expect("navworld is JSON");
+    let listed: Vec<f64> = root["transitionActions"]
+        .as_array()
+        .expect("entries")
+        .iter()
+        .filter(|entry| entry["state"] == 32)
+        .flat_map(|entry| entry["transitions"].as_array().expect("transitions").iter())
+        .filter(|t| t["action"] == 4 && t["state"] == 14)
+        .map(|t| t["prob"].as_f64().expect("count"))
+        .collect();
+    assert_eq!(listed.len(), 2, "the file should list (32, 4) -> 14 twice");
+    let sa = spec.sa(32, 4);
+    let merged: Vec<f64> = spec
+        .outcomes(sa)
+        .filter(|&o| spec.outcome_state[o] == 14)
+        .map(|o| spec.outcome_weight[o])
+        .collect();
+    assert_eq!(merged, vec![listed.iter().sum::<f64>()]);
+    assert_eq!(spec.outcomes(sa).len(), 2);
+
+    let out = tempfile::tempdir().unwrap();
+    let exported = env::json::export(&spec, out.path()).expect("export navworld");
+    let back = env::json::load(&exported, "json:navworld").expect("exported navworld loads");
+    assert_eq!(back, spec);
 }
 
 #[test]

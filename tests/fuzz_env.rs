@@ -7,6 +7,8 @@
 //! `PROPTEST_CASES=100000 cargo test --release --test fuzz_env`. Inputs worth keeping go in
 //! `tests/fuzz_corpus/env/` (one folder per case, see its README), replayed by the last test.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 
 use mbmf::env::json::load;
@@ -96,17 +98,6 @@ fn assert_well_formed(spec: &Spec) {
     assert!(!spec.initial_states.contains(&spec.goal));
     assert!(spec.goal_reward.is_finite());
     assert_eq!(spec.state_names.len(), spec.n_states);
-}
-
-/// Cases per property: 256 in the normal run, more with PROPTEST_CASES.
-fn config() -> ProptestConfig {
-    ProptestConfig {
-        cases: std::env::var("PROPTEST_CASES")
-            .ok()
-            .and_then(|v| v.parse().ok())
-            .unwrap_or(256),
-        ..ProptestConfig::default()
-    }
 }
 
 /// Random bytes, at most 2 KiB, biased towards the characters the formats use.
@@ -360,7 +351,7 @@ fn edit_bytes(mut bytes: Vec<u8>, edits: &[(u8, usize, usize, Vec<u8>)]) -> Vec<
 }
 
 proptest! {
-    #![proptest_config(config())]
+    #![proptest_config(common::proptest_config(256))]
 
     #[test]
     fn random_bytes_as_any_of_the_three_files_never_panic(which in 0..3usize, junk in bytes()) {

@@ -6,6 +6,8 @@
 //! The normal test run tries 256 cases per property. A longer session:
 //! `PROPTEST_CASES=100000 cargo test --release --test fuzz_sweep`.
 
+mod common;
+
 use std::path::Path;
 
 use mbmf::sweep::file::{Sweep, SweepError};
@@ -63,16 +65,6 @@ fn check(text: &str) {
             assert!(!message.is_empty());
         }
         Err(other) => panic!("parsing text gave a read error: {other}"),
-    }
-}
-
-fn config() -> ProptestConfig {
-    ProptestConfig {
-        cases: std::env::var("PROPTEST_CASES")
-            .ok()
-            .and_then(|v| v.parse().ok())
-            .unwrap_or(256),
-        ..ProptestConfig::default()
     }
 }
 
@@ -196,7 +188,7 @@ fn junk() -> impl Strategy<Value = String> {
 }
 
 proptest! {
-    #![proptest_config(config())]
+    #![proptest_config(common::proptest_config(256))]
 
     #[test]
     fn random_text_never_makes_the_sweep_parser_panic(text in junk()) {

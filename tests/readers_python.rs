@@ -12,32 +12,6 @@ use std::process::Command;
 
 use common::*;
 
-/// The python of `venv` (under the repository; `env` overrides it) if `imports` import there.
-fn python(env: &str, venv: &str, imports: &str) -> Option<PathBuf> {
-    let py = std::env::var_os(env)
-        .map(PathBuf::from)
-        .unwrap_or_else(|| repo().join(venv).join("bin/python"));
-    let why = match Command::new(&py)
-        .args(["-c", &format!("import {imports}")])
-        .output()
-    {
-        Ok(out) if out.status.success() => return Some(py),
-        Ok(out) => format!(
-            "{} cannot import {imports}: {}",
-            py.display(),
-            String::from_utf8_lossy(&out.stderr).trim()
-        ),
-        Err(e) => format!("cannot run {}: {e}", py.display()),
-    };
-    if std::env::var("CI").is_ok_and(|v| v == "true") {
-        panic!(
-            "CI=true but the reader check cannot run: {why}; .ci/run runs scripts/python-env.sh first"
-        );
-    }
-    eprintln!("SKIP reader check: {why} (run scripts/python-env.sh to create {venv})");
-    None
-}
-
 /// Runs `script` with `args` and parses the JSON it prints.
 fn run_script(py: &Path, script: &str, args: &[&Path]) -> serde_json::Value {
     let out = Command::new(py)
@@ -92,28 +66,7 @@ fn write_both() -> Written {
     ]);
     let file = write_sweep(dir.path(), "small.toml", SMALL);
     let sweep = dir.path().join("sweep");
-    let s = sweep.to_str().unwrap();
-    run_ok(&[
-        "sweep",
-        &file,
-        "--out",
-        s,
-        "--quiet",
-        "--batch-size",
-        "5",
-        "--shard",
-        "0/2",
-    ]);
-    run_ok(&[
-        "sweep",
-        &file,
-        "--out",
-        s,
-        "--quiet",
-        "--batch-size",
-        "5",
-        "--resume",
-    ]);
+    sweep_in_two_parts(&file, &sweep);
     Written {
         _dir: dir,
         run,
@@ -278,7 +231,7 @@ fn check_common(got: &serde_json::Value, w: &Written) {
 
 #[test]
 fn old_polars_and_pyarrow_14_read_run_and_sweep_files_with_float_statistics() {
-    let Some(py) = python("MBMF_PYTHON_OLD", ".venv-old", "polars, pyarrow") else {
+    let Some(py) = venv_python("MBMF_PYTHON_OLD", ".venv-old", "polars, pyarrow") else {
         return;
     };
     let w = write_both();
@@ -290,7 +243,7 @@ fn old_polars_and_pyarrow_14_read_run_and_sweep_files_with_float_statistics() {
 
 #[test]
 fn current_polars_pandas_pyarrow_and_duckdb_read_run_and_sweep_files() {
-    let Some(py) = python("MBMF_PYTHON", ".venv", "polars, pyarrow, pandas, duckdb") else {
+    let Some(py) = venv_python("MBMF_PYTHON", ".venv", "polars, pyarrow, pandas, duckdb") else {
         return;
     };
     let w = write_both();

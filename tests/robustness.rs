@@ -91,61 +91,47 @@ struct Output {
 impl Output {
     /// The float column `name` of runs.parquet (nulls as `None`).
     fn runs_f64(&self, name: &str) -> Vec<Option<f64>> {
-        column(&self.runs, name)
-            .iter()
-            .flat_map(|a| {
-                let a = a
-                    .as_any()
-                    .downcast_ref::<Float64Array>()
-                    .expect("a float column");
-                a.iter().collect::<Vec<_>>()
-            })
-            .collect()
+        values(&self.runs, name, |a: &Float64Array, i| {
+            a.is_valid(i).then(|| a.value(i))
+        })
     }
 
     /// The count column `name` of runs.parquet (Int64, never negative).
     fn runs_u64(&self, name: &str) -> Vec<u64> {
-        column(&self.runs, name)
-            .iter()
-            .flat_map(|a| {
-                let a = a
-                    .as_any()
-                    .downcast_ref::<Int64Array>()
-                    .expect("an Int64 column");
-                a.values()
-                    .iter()
-                    .map(|&v| u64::try_from(v).unwrap())
-                    .collect::<Vec<_>>()
-            })
-            .collect()
+        values(&self.runs, name, |a: &Int64Array, i| {
+            u64::try_from(a.value(i)).unwrap()
+        })
     }
 
-    /// The string column `name` of runs.parquet.
+    /// The string column `name` of runs.parquet (nulls as "").
     fn runs_str(&self, name: &str) -> Vec<String> {
-        column(&self.runs, name)
-            .iter()
-            .flat_map(|a| {
-                let a = a
-                    .as_any()
-                    .downcast_ref::<StringArray>()
-                    .expect("a string column");
-                a.iter()
-                    .map(|s| s.unwrap_or_default().to_string())
-                    .collect::<Vec<_>>()
-            })
-            .collect()
+        values(&self.runs, name, |a: &StringArray, i| {
+            a.is_valid(i)
+                .then(|| a.value(i))
+                .unwrap_or_default()
+                .to_string()
+        })
     }
 }
 
-fn column(batches: &[RecordBatch], name: &str) -> Vec<std::sync::Arc<dyn Array>> {
-    batches
-        .iter()
-        .map(|b| {
-            b.column_by_name(name)
-                .unwrap_or_else(|| panic!("no column {name}"))
-                .clone()
-        })
-        .collect()
+/// Every value of column `name` of `batches`, read by `value` from arrays of type `A`.
+fn values<A: Array + 'static, T>(
+    batches: &[RecordBatch],
+    name: &str,
+    value: impl Fn(&A, usize) -> T,
+) -> Vec<T> {
+    let mut out = Vec::new();
+    for b in batches {
+        let column = b
+            .column_by_name(name)
+            .unwrap_or_else(|| panic!("no column {name}"));
+        let a = column
+            .as_any()
+            .downcast_ref::<A>()
+            .unwrap_or_else(|| panic!("column {name} is not a {}", std::any::type_name::<A>()));
+        out.extend((0..a.len()).map(|i| value(a, i)));
+    }
+    out
 }
 
 fn read(path: &Path) -> Vec<RecordBatch> {

@@ -10,14 +10,8 @@ use std::path::Path;
 use common::*;
 
 fn run_into(out: &Path, seed: &str, extra: &[&str]) -> std::process::Output {
-    let mut args = vec![
-        "run",
-        "--controller",
-        "mf,ec",
-        "--runs",
-        "2",
-        "--steps",
-        "300",
+    let mut args = SMALL_RUN.to_vec();
+    args.extend([
         "--babbling",
         "50",
         "--checkpoint",
@@ -26,7 +20,7 @@ fn run_into(out: &Path, seed: &str, extra: &[&str]) -> std::process::Output {
         seed,
         "--quiet",
         "--out",
-    ];
+    ]);
     args.push(out.to_str().unwrap());
     args.extend(extra);
     run(&args)
@@ -81,15 +75,7 @@ fn a_run_killed_between_the_two_moves_leaves_the_old_pair_for_readers() {
     );
 
     let killed = mbmf()
-        .args([
-            "run",
-            "--controller",
-            "mf,ec",
-            "--runs",
-            "2",
-            "--steps",
-            "300",
-        ])
+        .args(SMALL_RUN)
         .args([
             "--babbling",
             "50",

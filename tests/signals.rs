@@ -114,18 +114,8 @@ fn long_run(out: &Path) -> Child {
 }
 
 fn small_run(out: &Path, extra: &[&str]) {
-    let mut args = vec![
-        "run",
-        "--controller",
-        "mf,ec",
-        "--runs",
-        "2",
-        "--steps",
-        "300",
-        "--quiet",
-        "--out",
-        out.to_str().unwrap(),
-    ];
+    let mut args = SMALL_RUN.to_vec();
+    args.extend(["--quiet", "--out", out.to_str().unwrap()]);
     args.extend(extra);
     run_ok(&args);
 }
@@ -221,25 +211,6 @@ fn a_staging_folder_left_by_sigkill_is_removed_by_the_next_run_but_a_live_one_is
     assert_eq!(listing(&out), ["runs.parquet", "series.parquet"]);
 }
 
-/// 6 configurations x 8 seeds = 48 runs, one part each: a few seconds in all.
-const SWEEP: &str = r#"
-seeds = 8
-master_seed = 3
-
-[fixed]
-task = "tidy1"
-steps = 20000
-babbling = 200
-checkpoint = 1000
-
-[grid]
-controller = ["mf", "rnd", "ec"]
-
-[[zip]]
-interaction = ["none", "takeover"]
-budget = [0, 20]
-"#;
-
 fn sweep(file: &str, out: &Path, resume: bool) -> Child {
     let mut args = vec![
         "sweep",
@@ -259,7 +230,9 @@ fn sweep(file: &str, out: &Path, resume: bool) -> Child {
 #[test]
 fn sigint_and_sigterm_stop_a_sweep_keeping_its_parts_and_resume_gives_the_whole_dataset() {
     let dir = tempfile::tempdir().unwrap();
-    let file = write_sweep(dir.path(), "sig.toml", SWEEP);
+    // 6 configurations x 8 seeds = 48 runs, one part each: a few seconds in all.
+    let sweep_text = six_configurations(8, 20000, 1000);
+    let file = write_sweep(dir.path(), "sig.toml", &sweep_text);
     let reference = dir.path().join("reference");
     let (exit, err) = finish(sweep(&file, &reference, false));
     assert_eq!(exit, Some(0), "{err}");

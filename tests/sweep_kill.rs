@@ -10,25 +10,6 @@ use std::time::{Duration, Instant};
 
 use common::*;
 
-/// 6 configurations x 6 seeds = 36 runs in 12 parts of 3: about 0.3 s, much of it in fsync.
-const KILL_SWEEP: &str = r#"
-seeds = 6
-master_seed = 3
-
-[fixed]
-task = "tidy1"
-steps = 1500
-babbling = 200
-checkpoint = 100
-
-[grid]
-controller = ["mf", "rnd", "ec"]
-
-[[zip]]
-interaction = ["none", "takeover"]
-budget = [0, 20]
-"#;
-
 const TRIALS: u64 = 24;
 
 fn start(file: &str, out: &Path, resume: bool) -> Child {
@@ -82,7 +63,8 @@ fn unit(i: u64) -> f64 {
 #[test]
 fn sigkill_at_random_moments_then_resume_gives_the_uninterrupted_dataset() {
     let dir = tempfile::tempdir().unwrap();
-    let file = write_sweep(dir.path(), "kill.toml", KILL_SWEEP);
+    // 6 configurations x 6 seeds = 36 runs in 12 parts of 3: about 0.3 s, much of it in fsync.
+    let file = write_sweep(dir.path(), "kill.toml", &six_configurations(6, 1500, 100));
     let reference = dir.path().join("reference");
     let started = Instant::now();
     let status = start(&file, &reference, false).wait().unwrap();

@@ -4,31 +4,9 @@
 
 mod common;
 
-use std::path::PathBuf;
 use std::process::Command;
 
 use common::*;
-
-/// The venv's python ($MBMF_PYTHON, else `.venv/bin/python`) if polars, pyarrow and pandas
-/// import there.
-fn python() -> Result<PathBuf, String> {
-    let py = std::env::var_os("MBMF_PYTHON")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| repo().join(".venv/bin/python"));
-    let out = Command::new(&py)
-        .args(["-c", "import polars, pyarrow, pandas"])
-        .output()
-        .map_err(|e| format!("cannot run {}: {e}", py.display()))?;
-    if out.status.success() {
-        Ok(py)
-    } else {
-        Err(format!(
-            "{} cannot import polars, pyarrow and pandas: {}",
-            py.display(),
-            String::from_utf8_lossy(&out.stderr).trim()
-        ))
-    }
-}
 
 const SCRIPT: &str = r#"
 import json, sys
@@ -62,44 +40,14 @@ print(json.dumps({
 
 #[test]
 fn polars_scan_parquet_and_pandas_read_parquet_read_a_sweep_dataset() {
-    let py = match python() {
-        Ok(py) => py,
-        Err(why) if std::env::var("CI").is_ok_and(|v| v == "true") => panic!(
-            "CI=true but the Python check cannot run: {why}; .ci/run runs scripts/python-env.sh \
-             first"
-        ),
-        Err(why) => {
-            eprintln!(
-                "SKIP polars/pandas check: {why} (run scripts/python-env.sh to create .venv)"
-            );
-            return;
-        }
+    let Some(py) = venv_python("MBMF_PYTHON", ".venv", "polars, pyarrow, pandas") else {
+        return;
     };
     let dir = tempfile::tempdir().unwrap();
     let file = write_sweep(dir.path(), "small.toml", SMALL);
     let out = dir.path().join("out");
     // Several parts, written by a resumed run, as users will meet them.
-    run_ok(&[
-        "sweep",
-        &file,
-        "--out",
-        out.to_str().unwrap(),
-        "--quiet",
-        "--batch-size",
-        "5",
-        "--shard",
-        "0/2",
-    ]);
-    run_ok(&[
-        "sweep",
-        &file,
-        "--out",
-        out.to_str().unwrap(),
-        "--quiet",
-        "--batch-size",
-        "5",
-        "--resume",
-    ]);
+    sweep_in_two_parts(&file, &out);
     // Dotfiles and temporaries must not confuse the readers.
     std::fs::write(
         out.join("runs/.part-000099-000099.parquet.tmp-1"),

@@ -12,7 +12,7 @@ use crate::analysis::AnalysisError;
 use crate::analysis::compare::{self, Comparison};
 use crate::analysis::dataset::{self, Filter, Table, Value};
 use crate::analysis::front::{self, DEFAULT_OBJECTIVES, Front};
-use crate::analysis::min_budget::{self, DEFAULT_ALPHA, MinBudget};
+use crate::analysis::min_budget::{self, DEFAULT_ALPHA, Level, MinBudget};
 use crate::analysis::pareto::{Direction, Objective};
 use crate::plot::{self, ScatterChart};
 
@@ -476,10 +476,7 @@ fn comparison_json(c: &Comparison) -> serde_json::Value {
                 "p": p.test.p_value,
                 "p_holm": p.p_holm,
                 "effect": p.test.effect_size,
-                "method": match p.test.method {
-                    crate::analysis::stats::Method::Exact => "exact",
-                    crate::analysis::stats::Method::NormalApprox => "normal",
-                },
+                "method": method_name(p.test.method),
             })
         })
         .collect();
@@ -494,6 +491,14 @@ fn comparison_json(c: &Comparison) -> serde_json::Value {
         "left_out": empty,
         "also_varying": c.mixed,
     })
+}
+
+/// How a test's p-value was computed, as `--json` and the table name it.
+fn method_name(method: crate::analysis::stats::Method) -> &'static str {
+    match method {
+        crate::analysis::stats::Method::Exact => "exact",
+        crate::analysis::stats::Method::NormalApprox => "normal",
+    }
 }
 
 /// Column titles of a text table.
@@ -543,11 +548,7 @@ fn print_comparison(c: &Comparison) {
                 pval(p.p_holm),
                 crate::analysis::stats::significance_stars(p.p_holm).to_owned(),
                 format!("{:+.3}", p.test.effect_size),
-                match p.test.method {
-                    crate::analysis::stats::Method::Exact => "exact",
-                    crate::analysis::stats::Method::NormalApprox => "normal",
-                }
-                .to_owned(),
+                method_name(p.test.method).to_owned(),
             ]
         })
         .collect();
@@ -648,11 +649,7 @@ fn print_min_budget(r: &MinBudget, levels: bool) {
     let mut rows = Vec::new();
     let mut notes = Vec::new();
     for (g, group) in r.groups.iter().enumerate() {
-        let mut row: Vec<String> = r
-            .shown
-            .iter()
-            .map(|k| r.key_value(g, k).map(|v| v.to_string()).unwrap_or_default())
-            .collect();
+        let mut row = row_label(r, g);
         let chosen = &group.levels[group.chosen];
         let best = &group.levels[group.best];
         let budgets: Vec<String> = group.levels.iter().map(|l| l.budget.to_string()).collect();
@@ -678,15 +675,7 @@ fn print_min_budget(r: &MinBudget, levels: bool) {
                 .levels
                 .iter()
                 .filter(|l| group.not_monotone.contains(&l.budget))
-                .map(|l| {
-                    let by: Vec<String> = l
-                        .vs_larger
-                        .iter()
-                        .filter(|v| v.beats)
-                        .map(|v| format!("{} (p = {})", v.budget, pval(v.p_value)))
-                        .collect();
-                    format!("{} is beaten by {}", l.budget, by.join(", "))
-                })
+                .map(|l| format!("{} is beaten by {}", l.budget, beaten_by(l)))
                 .collect();
             notes.push(format!(
                 "not monotone for {}: above the minimal budget {}, {}",
@@ -723,25 +712,30 @@ fn print_min_budget(r: &MinBudget, levels: bool) {
                 .levels
                 .iter()
                 .map(|l| {
-                    let by: Vec<String> = l
-                        .vs_larger
-                        .iter()
-                        .filter(|v| v.beats)
-                        .map(|v| format!("{} (p = {})", v.budget, pval(v.p_value)))
-                        .collect();
                     vec![
                         l.budget.to_string(),
                         l.n.to_string(),
                         num(l.mean),
                         num(l.sd),
                         if l.qualifies { "yes" } else { "no" }.to_owned(),
-                        by.join(", "),
+                        beaten_by(l),
                     ]
                 })
                 .collect();
             out!("{}", render_aligned(&headers, &rows, |i| i == 5));
         }
     }
+}
+
+/// The larger budgets that beat `level`, with their p-values: `40 (p = 0.01), 80 (p = 0.002)`.
+fn beaten_by(level: &Level) -> String {
+    let by: Vec<String> = level
+        .vs_larger
+        .iter()
+        .filter(|v| v.beats)
+        .map(|v| format!("{} (p = {})", v.budget, pval(v.p_value)))
+        .collect();
+    by.join(", ")
 }
 
 fn row_label(r: &MinBudget, g: usize) -> Vec<String> {

@@ -82,17 +82,20 @@ impl<'a> LineFigure<'a> {
 
 impl Figure for LineFigure<'_> {
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> DrawResult<DB> {
-        let area = titled_area(root, &self.chart.title)?;
-        let labels: Vec<&str> = self.series.iter().map(|s| s.label.as_str()).collect();
-        let legend_w = legend_width(&area, &labels)?;
-        let (plot_area, legend_area) = split_for_legend(&area, legend_w);
-        let mut chart = xy_chart(
-            &plot_area,
-            self.x,
-            self.y,
-            &self.chart.x_label,
-            &self.chart.y_label,
-        )?;
+        let entries: Vec<(String, Swatch)> = self
+            .series
+            .iter()
+            .map(|s| {
+                let swatch = Swatch::Line {
+                    colour: s.colour,
+                    band: s.band.is_some(),
+                };
+                (s.label.clone(), swatch)
+            })
+            .collect();
+        let c = self.chart;
+        let (plot_area, legend_area) = plot_and_legend(root, &c.title, &entries)?;
+        let mut chart = xy_chart(&plot_area, self.x, self.y, &c.x_label, &c.y_label)?;
         for &x in &self.chart.x_marks {
             if x >= self.x.lo && x <= self.x.hi {
                 chart.draw_series(std::iter::once(PathElement::new(
@@ -134,17 +137,6 @@ impl Figure for LineFigure<'_> {
                 )?;
             }
         }
-        let entries: Vec<(String, Swatch)> = self
-            .series
-            .iter()
-            .map(|s| {
-                let swatch = Swatch::Line {
-                    colour: s.colour,
-                    band: s.band.is_some(),
-                };
-                (s.label.clone(), swatch)
-            })
-            .collect();
         draw_legend(&legend_area, &entries, 30)
     }
 }

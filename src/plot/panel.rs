@@ -216,13 +216,27 @@ pub(super) fn draw_legend<DB: DrawingBackend>(
     Ok(())
 }
 
+/// A plot area and, on its right, a legend area.
+pub(super) type PlotAndLegend<DB> = (DrawingArea<DB, Shift>, DrawingArea<DB, Shift>);
+
 /// Plot area and legend area side by side (the legend on the right).
 pub(super) fn split_for_legend<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
     legend_width: u32,
-) -> (DrawingArea<DB, Shift>, DrawingArea<DB, Shift>) {
+) -> PlotAndLegend<DB> {
     let (width, _) = area.dim_in_pixel();
     area.split_horizontally(width.saturating_sub(legend_width))
+}
+
+/// Under the title, the plot area and, on its right, a legend area wide enough for `entries`.
+pub(super) fn plot_and_legend<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    title: &str,
+    entries: &[(String, Swatch)],
+) -> Result<PlotAndLegend<DB>, DrawingAreaErrorKind<DB::ErrorType>> {
+    let area = titled_area(root, title)?;
+    let names: Vec<&str> = entries.iter().map(|(l, _)| l.as_str()).collect();
+    Ok(split_for_legend(&area, legend_width(&area, &names)?))
 }
 
 /// A chart on two [`Axis`] scales.

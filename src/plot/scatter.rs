@@ -90,7 +90,6 @@ pub(super) fn overlaps(a: Bounds, b: Bounds) -> bool {
 
 impl Figure for ScatterFigure<'_> {
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> DrawResult<DB> {
-        let area = titled_area(root, &self.chart.title)?;
         let mut entries = vec![("all points".to_string(), Swatch::Dot(POINT_COLOUR))];
         if !self.front.is_empty() {
             entries.push(("Pareto front".to_string(), Swatch::LineDot(FRONT_COLOUR)));
@@ -99,15 +98,9 @@ impl Figure for ScatterFigure<'_> {
         if knee.is_some() {
             entries.push(("knee".to_string(), Swatch::Ring));
         }
-        let names: Vec<&str> = entries.iter().map(|(l, _)| l.as_str()).collect();
-        let (plot_area, legend_area) = split_for_legend(&area, legend_width(&area, &names)?);
-        let mut chart = xy_chart(
-            &plot_area,
-            self.x,
-            self.y,
-            &self.chart.x_label,
-            &self.chart.y_label,
-        )?;
+        let c = self.chart;
+        let (plot_area, legend_area) = plot_and_legend(root, &c.title, &entries)?;
+        let mut chart = xy_chart(&plot_area, self.x, self.y, &c.x_label, &c.y_label)?;
         let points = &self.chart.points;
         chart.draw_series(
             points

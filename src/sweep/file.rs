@@ -250,6 +250,9 @@ fn entries<'t, 'i>(
     e
 }
 
+/// One key of an axis section: the key, where it is written and its values.
+type List = (Key, Range<usize>, Vec<Value>);
+
 /// Parser state while reading one file.
 struct Parser<'a> {
     src: Src<'a>,
@@ -287,20 +290,40 @@ impl Parser<'_> {
         })
     }
 
+    /// `v` as a table, or `message` at `span`.
+    fn table<'t, 'i>(
+        &self,
+        v: &'t Spanned<DeValue<'i>>,
+        span: &Range<usize>,
+        key: &str,
+        message: String,
+    ) -> Result<&'t DeTable<'i>, SweepError> {
+        match v.get_ref() {
+            DeValue::Table(t) => Ok(t),
+            _ => Err(self.src.err(span, key, message)),
+        }
+    }
+
+    /// Refuses a list or a table as the value of `key` in a section of single values.
+    fn one_value(
+        &self,
+        key: Key,
+        v: &Spanned<DeValue<'_>>,
+        section: &str,
+        hint: &str,
+    ) -> Result<(), SweepError> {
+        if !matches!(v.get_ref(), DeValue::Array(_) | DeValue::Table(_)) {
+            return Ok(());
+        }
+        let message = format!("key '{}' in {section} takes one value{hint}", key.name());
+        Err(self.src.err(&v.span(), key.name(), message))
+    }
+
     /// `[fixed]`: one value per key.
     fn fixed(&mut self, table: &DeTable<'_>) -> Result<(), SweepError> {
         for (key_name, value) in entries(table) {
             let key = self.key(key_name, "[fixed]")?;
-            if matches!(value.get_ref(), DeValue::Array(_) | DeValue::Table(_)) {
-                return Err(self.src.err(
-                    &value.span(),
-                    key.name(),
-                    format!(
-                        "key '{}' in [fixed] takes one value; put lists and ranges in [grid]",
-                        key.name()
-                    ),
-                ));
-            }
+            self.one_value(key, value, "[fixed]", "; put lists and ranges in [grid]")?;
             self.claim(key, &key_name.span(), "[fixed]")?;
             let value = self.scalar(key, value, "[fixed]")?;
             self.fixed.push((key, value));
@@ -310,20 +333,28 @@ impl Parser<'_> {
 
     /// `[grid]`: one axis per key, in file order.
     fn grid(&mut self, table: &DeTable<'_>) -> Result<(), SweepError> {
-        for (key_name, value) in entries(table) {
-            let key = self.key(key_name, "[grid]")?;
-            self.claim(key, &key_name.span(), "[grid]")?;
-            let values = self.values(key, value, "[grid]")?;
-            self.axes.push((
-                key_name.span().start,
-                Axis {
-                    keys: vec![key],
-                    values: values.into_iter().map(|v| vec![v]).collect(),
-                    section: "[grid]".into(),
-                },
-            ));
+        for (key, span, values) in self.lists(table, "[grid]")? {
+            let values = values.into_iter().map(|v| vec![v]).collect();
+            let section = "[grid]".into();
+            let axis = Axis {
+                keys: vec![key],
+                values,
+                section,
+            };
+            self.axes.push((span.start, axis));
         }
         Ok(())
+    }
+
+    /// The keys of an axis section in file order, each claimed, with its place and values.
+    fn lists(&mut self, table: &DeTable<'_>, section: &str) -> Result<Vec<List>, SweepError> {
+        let mut lists = Vec::new();
+        for (key_name, value) in entries(table) {
+            let key = self.key(key_name, section)?;
+            self.claim(key, &key_name.span(), section)?;
+            lists.push((key, key_name.span(), self.values(key, value, section)?));
+        }
+        Ok(lists)
     }
 
     /// `[[zip]]`: one axis per table, whose lists vary together.
@@ -348,23 +379,15 @@ impl Parser<'_> {
         };
         for (g, group) in groups.into_iter().enumerate() {
             let section = format!("[[zip]] #{}", g + 1);
-            let DeValue::Table(t) = group.get_ref() else {
-                return Err(self.src.err(
-                    &group.span(),
-                    "zip",
-                    format!("{section} must be a table of lists"),
-                ));
-            };
-            let mut zkeys = Vec::new();
-            let mut columns: Vec<(Vec<Value>, Range<usize>)> = Vec::new();
-            for (key_name, value) in entries(t) {
-                let key = self.key(key_name, &section)?;
-                self.claim(key, &key_name.span(), &section)?;
-                let values = self.values(key, value, &section)?;
-                zkeys.push(key);
-                columns.push((values, key_name.span()));
-            }
-            let Some((first, first_span)) = columns.first() else {
+            let t = self.table(
+                group,
+                &group.span(),
+                "zip",
+                format!("{section} must be a table of lists"),
+            )?;
+            let columns = self.lists(t, &section)?;
+            let zkeys: Vec<Key> = columns.iter().map(|c| c.0).collect();
+            let Some((_, first_span, first)) = columns.first() else {
                 return Err(self.src.err(
                     &group.span(),
                     "zip",
@@ -372,11 +395,10 @@ impl Parser<'_> {
                 ));
             };
             let n = first.len();
-            if let Some((_, span)) = columns.iter().find(|(c, _)| c.len() != n) {
-                let lengths = zkeys
+            if let Some((_, span, _)) = columns.iter().find(|(_, _, c)| c.len() != n) {
+                let lengths = columns
                     .iter()
-                    .zip(&columns)
-                    .map(|(k, (c, _))| format!("{} has {}", k.name(), c.len()))
+                    .map(|(k, _, c)| format!("{} has {}", k.name(), c.len()))
                     .collect::<Vec<_>>()
                     .join(", ");
                 return Err(self.src.err(
@@ -386,7 +408,7 @@ impl Parser<'_> {
                 ));
             }
             let values: Vec<Vec<Value>> = (0..n)
-                .map(|i| columns.iter().map(|(c, _)| c[i].clone()).collect())
+                .map(|i| columns.iter().map(|(_, _, c)| c[i].clone()).collect())
                 .collect();
             let mut rows: HashMap<String, usize> = HashMap::new();
             let mut warned: Vec<String> = Vec::new();
@@ -443,13 +465,12 @@ impl Parser<'_> {
                     ),
                 ));
             }
-            let DeValue::Table(t) = body.get_ref() else {
-                return Err(self.src.err(
-                    &pname.span(),
-                    "profiles",
-                    format!("{section} must be a table of parameter values"),
-                ));
-            };
+            let t = self.table(
+                body,
+                &pname.span(),
+                "profiles",
+                format!("{section} must be a table of parameter values"),
+            )?;
             let mut values = Vec::new();
             for (key_name, value) in entries(t) {
                 let key = self.key(key_name, &section)?;
@@ -460,13 +481,7 @@ impl Parser<'_> {
                         format!("{section} cannot set 'profile' itself"),
                     ));
                 }
-                if matches!(value.get_ref(), DeValue::Array(_) | DeValue::Table(_)) {
-                    return Err(self.src.err(
-                        &value.span(),
-                        key.name(),
-                        format!("key '{}' in {section} takes one value", key.name()),
-                    ));
-                }
+                self.one_value(key, value, &section, "")?;
                 if values.iter().any(|(k, _)| *k == key) {
                     return Err(self.src.err(
                         &key_name.span(),
@@ -704,11 +719,7 @@ impl Parser<'_> {
             _ => return Err(expected(self)),
         };
         // Each parameter's accepted range, checked once per value so the message points at it.
-        let mut probe = Params::default();
-        keys::apply(key, &value, &mut probe);
-        if let Err(e) = probe.validate() {
-            return Err(bad(self, e.to_string()));
-        }
+        in_range(key, &value).map_err(|e| bad(self, e.to_string()))?;
         Ok(value)
     }
 
@@ -1027,34 +1038,43 @@ impl Parser<'_> {
             } else {
                 Value::Real(x)
             };
-            let mut probe = Params::default();
-            keys::apply(key, &value, &mut probe);
-            if let Err(e) = probe.validate() {
-                return Err(err(self, &span, format!("the range reaches {value}: {e}")));
-            }
+            in_range(key, &value)
+                .map_err(|e| err(self, &span, format!("the range reaches {value}: {e}")))?;
             values.push(value);
         }
         Ok(values)
     }
 }
 
+/// Checks `value` against the accepted range of `key`'s parameter.
+fn in_range(key: Key, value: &Value) -> Result<(), ConfigError> {
+    let mut probe = Params::default();
+    keys::apply(key, value, &mut probe);
+    probe.validate()
+}
+
+/// Every value `[fixed]` and the axes give, with its key.
+fn set_values<'a>(
+    fixed: &'a [(Key, Value)],
+    axes: &'a [Axis],
+) -> impl Iterator<Item = (Key, &'a Value)> {
+    let on_axes = axes.iter().flat_map(|a| {
+        a.values
+            .iter()
+            .flat_map(move |row| a.keys.iter().copied().zip(row))
+    });
+    fixed.iter().map(|(k, v)| (*k, v)).chain(on_axes)
+}
+
 /// The tasks a sweep runs, in first-use order; tidy1 when some configurations set none.
 fn tasks(fixed: &[(Key, Value)], axes: &[Axis], profiles: &[UserProfile]) -> Vec<String> {
     let mut tasks: Vec<String> = Vec::new();
     let mut task_set = false;
-    let all_values = fixed
-        .iter()
-        .map(|(k, v)| (*k, v))
-        .chain(axes.iter().flat_map(|a| {
-            a.values
-                .iter()
-                .flat_map(move |row| a.keys.iter().copied().zip(row.iter()))
-        }))
-        .chain(
-            profiles
-                .iter()
-                .flat_map(|u| u.values.iter().map(|(k, v)| (*k, v))),
-        );
+    let all_values = set_values(fixed, axes).chain(
+        profiles
+            .iter()
+            .flat_map(|u| u.values.iter().map(|(k, v)| (*k, v))),
+    );
     for (key, value) in all_values {
         if key == Key::Task {
             task_set = true;
@@ -1126,16 +1146,10 @@ impl Sweep {
         let mut master_seed = 1u64;
         for (k, v) in entries(root.get_ref()) {
             let name = keys::normalise(k.get_ref());
-            let table = |p: &Parser<'_>| match v.get_ref() {
-                DeValue::Table(t) => Ok(t),
-                other => Err(p.src.err(
-                    &k.span(),
-                    &name,
-                    format!(
-                        "'{name}' must be a table ([{name}]), found {}",
-                        type_name(other)
-                    ),
-                )),
+            let table = |p: &Parser<'_>| {
+                let found = type_name(v.get_ref());
+                let message = format!("'{name}' must be a table ([{name}]), found {found}");
+                p.table(v, &k.span(), &name, message)
             };
             match name.as_str() {
                 "seeds" => {
@@ -1189,15 +1203,7 @@ impl Sweep {
         let tasks = tasks(&fixed, &axes, &profiles);
         let mut schedule_texts = vec![String::new()];
         let mut schedule_index: HashMap<String, usize> = HashMap::from([(String::new(), 0)]);
-        for (key, value) in fixed
-            .iter()
-            .map(|(k, v)| (*k, v))
-            .chain(axes.iter().flat_map(|a| {
-                a.values
-                    .iter()
-                    .flat_map(move |row| a.keys.iter().copied().zip(row.iter()))
-            }))
-        {
+        for (key, value) in set_values(&fixed, &axes) {
             if key == Key::Change && !schedule_index.contains_key(&value.to_string()) {
                 schedule_index.insert(value.to_string(), schedule_texts.len());
                 schedule_texts.push(value.to_string());

@@ -1,7 +1,7 @@
 //! Helpers shared by the integration tests: running the binary, reading a dataset back as
 //! sorted rows (so two datasets compare regardless of how runs were split into parts), the
-//! authors' data, and simulating configurations on a chosen number of threads. Each test file
-//! uses some of them.
+//! authors' data, the Python venvs of `scripts/python-env.sh`, and simulating configurations on a
+//! chosen number of threads. Each test file uses some of them.
 #![allow(dead_code)]
 
 use std::collections::BTreeMap;
@@ -42,6 +42,17 @@ pub fn run_ok(args: &[&str]) -> Output {
     );
     out
 }
+
+/// `mbmf run` of MF and EC, two runs of 300 steps: the small run several tests start from.
+pub const SMALL_RUN: [&str; 7] = [
+    "run",
+    "--controller",
+    "mf,ec",
+    "--runs",
+    "2",
+    "--steps",
+    "300",
+];
 
 /// Runs `mbmf run ARGS --quiet --out OUT` and panics with its stderr unless it succeeds.
 pub fn run_quiet(out: &Path, args: &[&str]) -> Output {
@@ -207,6 +218,30 @@ pub fn parts(dir: &Path, sub: &str) -> Vec<String> {
     names
 }
 
+/// A tidy1 sweep of 6 configurations (controllers mf, rnd and ec x interaction none with budget
+/// 0 and takeover with budget 20), `seeds` seeds each, master seed 3, 200 babbling steps.
+pub fn six_configurations(seeds: u32, steps: u32, checkpoint: u32) -> String {
+    format!(
+        r#"
+seeds = {seeds}
+master_seed = 3
+
+[fixed]
+task = "tidy1"
+steps = {steps}
+babbling = 200
+checkpoint = {checkpoint}
+
+[grid]
+controller = ["mf", "rnd", "ec"]
+
+[[zip]]
+interaction = ["none", "takeover"]
+budget = [0, 20]
+"#
+    )
+}
+
 /// A small sweep used by several tests: 2 controllers x 2 profiles (zip) x 3 seeds = 12 runs.
 pub const SMALL: &str = r#"
 seeds = 3
@@ -282,4 +317,50 @@ where
         .expect("valid configurations");
         out
     })
+}
+
+/// The python of `venv` (under the repository; `env` overrides it) if `imports` import there.
+pub fn venv_python(env: &str, venv: &str, imports: &str) -> Option<PathBuf> {
+    let py = std::env::var_os(env)
+        .map(PathBuf::from)
+        .unwrap_or_else(|| repo().join(venv).join("bin/python"));
+    let why = match Command::new(&py)
+        .args(["-c", &format!("import {imports}")])
+        .output()
+    {
+        Ok(out) if out.status.success() => return Some(py),
+        Ok(out) => format!(
+            "{} cannot import {imports}: {}",
+            py.display(),
+            String::from_utf8_lossy(&out.stderr).trim()
+        ),
+        Err(e) => format!("cannot run {}: {e}", py.display()),
+    };
+    if std::env::var("CI").is_ok_and(|v| v == "true") {
+        panic!(
+            "CI=true but the Python check cannot run: {why}; .ci/run runs scripts/python-env.sh first"
+        );
+    }
+    eprintln!("SKIP Python check: {why} (run scripts/python-env.sh to create {venv})");
+    None
+}
+
+/// Runs the sweep `file` into `out` as two commands, the first stopping after shard 0/2 and the
+/// second resuming, in parts of 5 runs: a dataset as users meet it.
+pub fn sweep_in_two_parts(file: &str, out: &Path) {
+    let out = out.to_str().unwrap();
+    let args = ["sweep", file, "--out", out, "--quiet", "--batch-size", "5"];
+    run_ok(&[&args[..], &["--shard", "0/2"]].concat());
+    run_ok(&[&args[..], &["--resume"]].concat());
+}
+
+/// Cases per property: `cases` in the normal run, as many as PROPTEST_CASES says if it is set.
+pub fn proptest_config(cases: u32) -> proptest::test_runner::Config {
+    proptest::test_runner::Config {
+        cases: std::env::var("PROPTEST_CASES")
+            .ok()
+            .and_then(|v| v.parse().ok())
+            .unwrap_or(cases),
+        ..proptest::test_runner::Config::default()
+    }
 }
