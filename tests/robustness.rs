@@ -106,10 +106,8 @@ impl Output {
     /// The string column `name` of runs.parquet (nulls as "").
     fn runs_str(&self, name: &str) -> Vec<String> {
         values(&self.runs, name, |a: &StringArray, i| {
-            a.is_valid(i)
-                .then(|| a.value(i))
-                .unwrap_or_default()
-                .to_string()
+            let text = if a.is_valid(i) { a.value(i) } else { "" };
+            text.to_string()
         })
     }
 }
