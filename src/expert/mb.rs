@@ -210,7 +210,8 @@ pub struct Model<'a> {
     /// Per state, max_b Q(s, b) of the MB's Q table as value iteration last left it, or NaN
     /// where not computed yet (see [`Model::value_iteration_cached`]).
     pub best: &'a mut [f64],
-    /// Bit set over pairs ([`dirty_words`] words): the pair must be recomputed at the next sweep.
+    /// Bit set over pairs ([`Observable::dirty_words`] words): the pair must be recomputed at
+    /// the next sweep. No padding bit is ever set.
     pub dirty: &'a mut [u64],
     /// Number of outcomes with a non-zero count: the terms one sweep evaluates.
     pub active_terms: &'a mut u64,
@@ -235,18 +236,24 @@ impl Model<'_> {
     /// [`value_iteration_cached`](Model::value_iteration_cached) by other means.
     pub fn forget_row_maxima(&mut self) {
         self.best.fill(f64::NAN);
-        self.dirty.fill(u64::MAX);
+        self.dirty_set().mark_all();
+    }
+
+    /// The dirty-pair set.
+    #[inline(always)]
+    fn dirty_set(&mut self) -> DirtySet<'_> {
+        DirtySet::new(self.dirty, self.obs.n_states * self.obs.n_actions)
     }
 
     #[inline(always)]
     fn mark(&mut self, sa: usize) {
-        self.dirty[sa / 64] |= 1 << (sa % 64);
+        self.dirty_set().mark(sa);
     }
 
     /// Records one execution of (s, a) that arrived in `next` with reward `r`, `terminal` when
     /// that arrival ended the episode (SPEC 10). `window_cap` is the ring stride of the batch,
     /// `window_n` this run's N <= `window_cap`.
-    #[inline]
+    #[inline(always)]
     pub fn learn(
         &mut self,
         window_cap: usize,
@@ -257,14 +264,15 @@ impl Model<'_> {
         r: f64,
         terminal: bool,
     ) {
-        let sa = s * self.obs.n_actions + a;
-        let outcome = self.obs.find(sa, next);
-        let first = self.obs.start[sa] as usize;
-        let local = (outcome - first) as u16;
+        let obs = self.obs;
+        let sa = s * obs.n_actions + a;
+        let first = obs.start[sa] as usize;
+        let outcome = obs.find(sa, next);
         let ring = &mut self.ring[sa * window_cap..sa * window_cap + window_n];
         let pos = self.ring_pos[sa] as usize;
-        if (self.ring_len[sa] as usize) < window_n {
-            self.ring_len[sa] += 1;
+        let kept = &mut self.ring_len[sa];
+        if (*kept as usize) < window_n {
+            *kept += 1;
         } else {
             let old = first + ring[pos] as usize;
             self.count[old] -= 1;
@@ -272,12 +280,15 @@ impl Model<'_> {
                 *self.active_terms -= 1;
             }
         }
-        ring[pos] = local;
-        if self.count[outcome] == 0 {
+        ring[pos] = (outcome - first) as u16;
+        let count = &mut self.count[outcome];
+        if *count == 0 {
             *self.active_terms += 1;
         }
-        self.count[outcome] += 1;
-        self.ring_pos[sa] = ((pos + 1) % window_n) as u16;
+        *count += 1;
+        // The ring cursor wraps by a comparison: a division per learned step costs more.
+        let after = pos + 1;
+        self.ring_pos[sa] = if after == window_n { 0 } else { after as u16 };
         self.reward[outcome] = r;
         self.terminal[outcome] = terminal;
         self.known[s] = true;
@@ -340,8 +351,20 @@ impl Model<'_> {
         epsilon: f64,
         max_sweeps: u32,
     ) -> ViReport {
-        let n_actions = self.obs.n_actions;
-        let n_pairs = self.obs.n_states * n_actions;
+        let obs = self.obs;
+        let n_actions = obs.n_actions;
+        let n_pairs = obs.n_states * n_actions;
+        // Views cut to their lengths once, so that indexing by a pair below `n_pairs` (or by a
+        // state of the table) needs no further bounds check in the loop.
+        let q = &mut q[..n_pairs];
+        let ring_len = &self.ring_len[..n_pairs];
+        let mut dirty = DirtySet::new(self.dirty, n_pairs);
+        let terms = Terms {
+            obs,
+            count: self.count,
+            reward: self.reward,
+            terminal: self.terminal,
+        };
         let mut report = ViReport::default();
         loop {
             let mut delta = 0.0;
@@ -352,15 +375,10 @@ impl Model<'_> {
             // The state of the current pair, followed as pairs ascend (a division per pair
             // would cost more than the arithmetic of a deterministic pair).
             let (mut s, mut row_end) = (0, n_actions);
-            while let Some(sa) = next_dirty(self.dirty, next_pair) {
+            while let Some(sa) = dirty.next_from(next_pair) {
                 next_pair = sa + 1;
-                if sa >= n_pairs {
-                    // Padding bits of the last word (set by forget_row_maxima).
-                    self.dirty[sa / 64] &= !(1 << (sa % 64));
-                    continue;
-                }
-                self.dirty[sa / 64] &= !(1 << (sa % 64));
-                let kept = self.ring_len[sa];
+                dirty.clear(sa);
+                let kept = ring_len[sa];
                 if kept == 0 {
                     continue;
                 }
@@ -372,7 +390,7 @@ impl Model<'_> {
                     };
                     row_end = (s + 1) * n_actions;
                 }
-                let value = self.pair_value(sa, kept, q, gamma);
+                let value = pair_value(&terms, self.best, sa, kept, q, gamma);
                 let old = q[sa];
                 delta += (value - old).abs();
                 if value.to_bits() != old.to_bits() {
@@ -390,24 +408,17 @@ impl Model<'_> {
                     };
                     self.best[s] = after;
                     if after.to_bits() != before.to_bits() {
-                        for &p in self.obs.preds.of(s) {
-                            let p = p as usize;
-                            self.dirty[p / 64] |= 1 << (p % 64);
+                        for &p in obs.preds.of(s) {
+                            dirty.mark(p as usize);
                         }
                     }
                 }
                 if !value.is_finite() {
                     // A full sweep would meet it again (and a NaN or infinite |dQ|) next time.
-                    self.mark(sa);
+                    dirty.mark(sa);
                 }
             }
-            report.sweeps += 1;
-            // A NaN delta can only come from non-finite values: stop rather than loop forever.
-            if delta < epsilon || delta.is_nan() {
-                break;
-            }
-            if report.sweeps >= max_sweeps {
-                report.capped = true;
+            if sweep_ends(&mut report, delta, epsilon, max_sweeps) {
                 break;
             }
         }
@@ -415,71 +426,138 @@ impl Model<'_> {
         report.ops = u64::from(report.sweeps) * *self.active_terms * (1 + n_actions as u64);
         report
     }
-
-    /// Q(s, a) of Eq. 2 for the pair `sa` (tried `kept` times), from the row maxima.
-    #[inline(always)]
-    fn pair_value(&mut self, sa: usize, kept: u16, q: &[f64], gamma: f64) -> f64 {
-        let obs = self.obs;
-        let n_actions = obs.n_actions;
-        let outcomes = obs.outcomes(sa);
-        let first = outcomes.start;
-        if outcomes.len() == 1 && self.count[first] == kept {
-            // A deterministic pair: T = kept / kept = 1 exactly, so the general formula below
-            // reduces to these operations, bit for bit.
-            let r_sa = 0.0 + self.reward[first];
-            let next = obs.next_state(first);
-            let future = if self.terminal[first] {
-                0.0
-            } else {
-                row_max(self.best, q, next, n_actions)
-            };
-            return 0.0 + (r_sa + gamma * future);
-        }
-        let n = f64::from(kept);
-        // T(s,a,s') of the first outcomes, computed once for both sums (same division, same
-        // value); pairs with more outcomes divide again in the second.
-        const KEEP: usize = 16;
-        let mut t = [0.0; KEEP];
-        let mut r_sa = 0.0;
-        for (i, o) in outcomes.clone().enumerate() {
-            let c = self.count[o];
-            if c > 0 {
-                let p = f64::from(c) / n;
-                if i < KEEP {
-                    t[i] = p;
-                }
-                r_sa += p * self.reward[o];
-            }
-        }
-        let mut value = 0.0;
-        for (i, o) in outcomes.enumerate() {
-            let c = self.count[o];
-            if c == 0 {
-                continue;
-            }
-            let next = obs.next_state(o);
-            let future = if self.terminal[o] {
-                0.0
-            } else {
-                row_max(self.best, q, next, n_actions)
-            };
-            let p = if i < KEEP { t[i] } else { f64::from(c) / n };
-            value += p * (r_sa + gamma * future);
-        }
-        value
-    }
 }
 
-/// The first set bit at or after `from`, if any.
+/// The per-outcome arrays of a model that value iteration reads (the sums of Eq. 2).
+struct Terms<'b> {
+    obs: &'b Observable,
+    count: &'b [u16],
+    reward: &'b [f64],
+    terminal: &'b [bool],
+}
+
+/// Q(s, a) of Eq. 2 for the pair `sa` (tried `kept` times), from the row maxima.
 #[inline(always)]
-fn next_dirty(bits: &[u64], from: usize) -> Option<usize> {
-    let mut w = from / 64;
-    let mut word = *bits.get(w)? & (u64::MAX << (from % 64));
-    while word == 0 {
-        w += 1;
-        word = *bits.get(w)?;
+fn pair_value(
+    terms: &Terms<'_>,
+    best: &mut [f64],
+    sa: usize,
+    kept: u16,
+    q: &[f64],
+    gamma: f64,
+) -> f64 {
+    let obs = terms.obs;
+    let n_actions = obs.n_actions;
+    let outcomes = obs.outcomes(sa);
+    // One range check per array for the pair, none per outcome.
+    let count = &terms.count[outcomes.clone()];
+    let reward = &terms.reward[outcomes.clone()];
+    let terminal = &terms.terminal[outcomes.clone()];
+    let next = &obs.state[outcomes];
+    if count.len() == 1 && count[0] == kept {
+        // A deterministic pair: T = kept / kept = 1 exactly, so the general formula below
+        // reduces to these operations, bit for bit.
+        let r_sa = 0.0 + reward[0];
+        let future = if terminal[0] {
+            0.0
+        } else {
+            row_max(best, q, next[0] as usize, n_actions)
+        };
+        return 0.0 + (r_sa + gamma * future);
     }
-    Some(w * 64 + word.trailing_zeros() as usize)
+    let n = f64::from(kept);
+    // T(s,a,s') of the first outcomes, computed once for both sums (same division, same
+    // value); pairs with more outcomes divide again in the second.
+    const KEEP: usize = 16;
+    let mut t = [0.0; KEEP];
+    let mut r_sa = 0.0;
+    for (i, (&c, &r)) in count.iter().zip(reward).enumerate() {
+        if c > 0 {
+            let p = f64::from(c) / n;
+            if i < KEEP {
+                t[i] = p;
+            }
+            r_sa += p * r;
+        }
+    }
+    let mut value = 0.0;
+    for (i, ((&c, &end), &next)) in count.iter().zip(terminal).zip(next).enumerate() {
+        if c == 0 {
+            continue;
+        }
+        let future = if end {
+            0.0
+        } else {
+            row_max(best, q, next as usize, n_actions)
+        };
+        let p = if i < KEEP { t[i] } else { f64::from(c) / n };
+        value += p * (r_sa + gamma * future);
+    }
+    value
+}
+
+/// Counts the sweep just made and says whether value iteration stops there: converged (summed
+/// |dQ| below `epsilon`), or at the sweep cap (`capped`). A NaN sum can only come from
+/// non-finite values: stop rather than loop forever.
+#[inline(always)]
+fn sweep_ends(report: &mut ViReport, delta: f64, epsilon: f64, max_sweeps: u32) -> bool {
+    report.sweeps += 1;
+    if delta < epsilon || delta.is_nan() {
+        return true;
+    }
+    if report.sweeps >= max_sweeps {
+        report.capped = true;
+        return true;
+    }
+    false
+}
+
+/// The dirty-pair set of a model, a bit per pair, ascending.
+struct DirtySet<'d> {
+    words: &'d mut [u64],
+    n_pairs: usize,
+}
+
+impl<'d> DirtySet<'d> {
+    /// The set stored in `dirty` ([`Observable::dirty_words`] words) over `n_pairs` pairs.
+    #[inline(always)]
+    fn new(words: &'d mut [u64], n_pairs: usize) -> Self {
+        DirtySet { words, n_pairs }
+    }
+
+    #[inline(always)]
+    fn mark(&mut self, sa: usize) {
+        self.words[sa / 64] |= 1 << (sa % 64);
+    }
+
+    #[inline(always)]
+    fn clear(&mut self, sa: usize) {
+        self.words[sa / 64] &= !(1 << (sa % 64));
+    }
+
+    /// Every pair dirty, and no padding bit (so that every set bit is a pair).
+    fn mark_all(&mut self) {
+        self.words.fill(u64::MAX);
+        let used = self.n_pairs % 64;
+        if let (Some(last), true) = (self.words.last_mut(), used != 0) {
+            *last = (1u64 << used) - 1;
+        }
+    }
+
+    /// The first dirty pair at or after `from`, if any.
+    #[inline(always)]
+    fn next_from(&self, from: usize) -> Option<usize> {
+        let mut w = from / 64;
+        let mut word = *self.words.get(w)? & (u64::MAX << (from % 64));
+        while word == 0 {
+            w += 1;
+            word = *self.words.get(w)?;
+        }
+        let sa = w * 64 + word.trailing_zeros() as usize;
+        // Every set bit is a pair (no padding bits): saying so lets the optimiser drop the
+        // bounds checks of the per-pair arrays indexed by `sa`.
+        (sa < self.n_pairs).then_some(sa)
+    }
 }
 
 /// `best[s]`, computed from row `s` of `q` first if unknown (NaN: `max_of` is never NaN).
@@ -696,12 +774,7 @@ mod tests {
                     q[sa] = value;
                 }
             }
-            report.sweeps += 1;
-            if delta < epsilon || delta.is_nan() {
-                break;
-            }
-            if report.sweeps >= max_sweeps {
-                report.capped = true;
+            if sweep_ends(&mut report, delta, epsilon, max_sweeps) {
                 break;
             }
         }
@@ -817,6 +890,26 @@ mod tests {
         let reference = value_iteration_reference(&owned, &spec, &mut q_ref, 0.95, 1e-9, 1000);
         assert_eq!(inc, reference);
         assert_eq!(q, q_ref);
+    }
+
+    #[test]
+    fn the_dirty_set_holds_exactly_the_pairs_marked_and_no_padding() {
+        for n_pairs in [1usize, 63, 64, 65, 128, 130] {
+            let mut words = vec![0u64; n_pairs.div_ceil(64)];
+            let mut set = DirtySet::new(&mut words, n_pairs);
+            set.mark_all();
+            let all: Vec<usize> =
+                std::iter::successors(set.next_from(0), |&sa| set.next_from(sa + 1)).collect();
+            assert_eq!(all, (0..n_pairs).collect::<Vec<_>>(), "{n_pairs} pairs");
+            for sa in 0..n_pairs {
+                set.clear(sa);
+            }
+            assert_eq!(set.next_from(0), None);
+            set.mark(n_pairs - 1);
+            set.mark(0);
+            assert_eq!(set.next_from(0), Some(0));
+            assert_eq!(set.next_from(1), Some(n_pairs - 1).filter(|&x| x >= 1));
+        }
     }
 
     #[test]
