@@ -6,9 +6,10 @@
 
 use rand_xoshiro::Xoshiro256PlusPlus;
 
-use crate::batch::{RunStats, uniform};
 use crate::env::{HumanTables, NO_NUISANCE, NO_TAKEOVER};
 use crate::params::{CongratulationEffect, HumanParams, Interaction};
+use crate::rng::uniform;
+use crate::run_stats::RunStats;
 
 /// Spends one unit of budget at experiment step `t_exp`, recording the step that spends the last.
 #[inline]

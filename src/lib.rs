@@ -7,6 +7,7 @@
 #![allow(clippy::too_many_arguments)]
 
 pub mod analysis;
+pub mod atomic;
 pub mod batch;
 pub mod bench;
 pub mod cli;
@@ -19,6 +20,8 @@ pub mod params;
 pub mod pipeline;
 pub mod plot;
 pub mod reproduce;
+pub mod rng;
+pub mod run_stats;
 pub mod schedule;
 pub mod sizing;
 pub mod suggest;

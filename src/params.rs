@@ -51,9 +51,10 @@ pub enum ConfigError {
         /// The interaction type asked for.
         interaction: String,
     },
-    /// A schedule of changes that cannot be read or does not fit the task (SPEC 10).
-    #[error(transparent)]
-    Schedule(#[from] crate::schedule::ScheduleError),
+    /// A schedule of changes that does not fit the task or the run (SPEC 10): the schedule's
+    /// own message, as text, so that parameters do not depend on the schedule that uses them.
+    #[error("{0}")]
+    Schedule(String),
     /// More distinct schedules in one batch than the engine indexes.
     #[error("too many distinct schedules in one batch (at most 65534): split the runs")]
     TooManySchedules,

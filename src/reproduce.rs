@@ -19,7 +19,6 @@ use anyhow::{Context, Result};
 
 use crate::analysis::stats::{self, Alternative};
 use crate::batch::{Batch, Checkpoint, RunStats};
-use crate::output;
 use crate::params::{Controller, Interaction, Profile, Selection, paper_budget};
 use crate::pipeline;
 use crate::plot;
@@ -341,7 +340,7 @@ pub fn reproduce(
 }
 
 fn write_atomic(path: &Path, text: &str) -> Result<()> {
-    output::write_atomic(path, text.as_bytes())
+    crate::atomic::write_atomic(path, text.as_bytes())
         .map_err(|(p, e)| anyhow::Error::new(e).context(format!("cannot write {}", p.display())))
 }
 

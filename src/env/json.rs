@@ -1168,9 +1168,9 @@ fn spaces_text(spec: &Spec) -> String {
     )
 }
 
-/// Writes `text` over `path` atomically (see [`crate::output::atomic`]).
+/// Writes `text` over `path` atomically (see [`crate::atomic`]).
 fn write_atomic(path: &Path, text: &str) -> Result<(), EnvFileError> {
-    crate::output::atomic::write_atomic(path, text.as_bytes())
+    crate::atomic::write_atomic(path, text.as_bytes())
         .map_err(|(path, error)| EnvFileError::Write { path, error })
 }
 

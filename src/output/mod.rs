@@ -10,7 +10,6 @@ pub mod atomic;
 pub mod columns;
 pub mod provenance;
 
-pub use atomic::write_atomic;
 pub use provenance::{Context, command_line, provenance};
 
 use std::fs::File;
