@@ -1,11 +1,9 @@
 //! The batch engine (SPEC 3.4 and 7): R independent runs of one environment, stored as flat
-//! arrays with the run axis first, stepped in parallel by rayon, one run or one lane group of
-//! runs stepped together ([`lanes`]) per task.
+//! arrays with the run axis first, stepped in parallel by rayon, one run per task.
 //!
 //! Runs never share mutable data and each owns its random stream, seeded from (master seed, run
 //! index) only, so results do not depend on batch size, thread count or scheduling order.
 
-mod lanes;
 mod step;
 
 use std::sync::Arc;
@@ -479,31 +477,21 @@ impl Batch {
     }
 
     /// Advances every run by up to `steps` steps (fewer where a run ends), in parallel; one rayon
-    /// task per lane group of runs that can be stepped together, and one per other run.
+    /// task per run.
     pub fn advance(&mut self, steps: u64) {
         let spec = Arc::clone(&self.spec);
         let spec: &Spec = &spec;
         let window_cap = self.window_cap;
-        let tasks = tasks(spec, self.views());
-        tasks.into_par_iter().with_min_len(1).for_each(|task| {
-            let started = Instant::now();
-            match task {
-                Task::One(params, mut view) => {
-                    let end = view.cursor.t.saturating_add(steps);
-                    step::run_until(spec, params, window_cap, &mut view, end);
-                    view.stats.wall_time_s += started.elapsed().as_secs_f64();
-                }
-                Task::Group(params, mut views) => {
-                    let end = views[0].cursor.t.saturating_add(steps);
-                    lanes::run_group_until(spec, params, window_cap, &mut views, end);
-                    // The group's time, shared equally by its runs.
-                    let share = started.elapsed().as_secs_f64() / lanes::L as f64;
-                    for view in &mut views {
-                        view.stats.wall_time_s += share;
-                    }
-                }
-            }
-        });
+        let views = self.views();
+        views
+            .into_par_iter()
+            .with_min_len(1)
+            .for_each(|(params, mut view)| {
+                let started = Instant::now();
+                let end = view.cursor.t.saturating_add(steps);
+                step::run_until(spec, params, window_cap, &mut view, end);
+                view.stats.wall_time_s += started.elapsed().as_secs_f64();
+            });
     }
 
     /// Splits the batch's arrays into one [`RunView`] per run.
@@ -601,51 +589,6 @@ impl Batch {
         }
         views
     }
-}
-
-/// One rayon task of [`Batch::advance`].
-#[allow(
-    clippy::large_enum_variant,
-    reason = "built once per advance and moved once; boxing would only add an allocation"
-)]
-enum Task<'a> {
-    /// A run stepped alone.
-    One(&'a Params, RunView<'a>),
-    /// Runs stepped together, one per lane.
-    Group([&'a Params; lanes::L], [RunView<'a>; lanes::L]),
-}
-
-/// The batch's runs as tasks: every full lane group of runs with equal [`lanes::GroupKey`]s,
-/// then every other run alone. Which runs share a group never changes a result.
-fn tasks<'a>(spec: &Spec, views: Vec<(&'a Params, RunView<'a>)>) -> Vec<Task<'a>> {
-    let mut tasks = Vec::with_capacity(views.len());
-    let mut filling: Vec<(lanes::GroupKey, Vec<(&'a Params, RunView<'a>)>)> = Vec::new();
-    for (params, view) in views {
-        let Some(key) = lanes::group_key(spec, params, &view) else {
-            tasks.push(Task::One(params, view));
-            continue;
-        };
-        let slot = match filling.iter().position(|(k, _)| *k == key) {
-            Some(i) => i,
-            None => {
-                filling.push((key, Vec::with_capacity(lanes::L)));
-                filling.len() - 1
-            }
-        };
-        let members = &mut filling[slot].1;
-        members.push((params, view));
-        if members.len() == lanes::L {
-            let group: [(&Params, RunView<'a>); lanes::L] = std::mem::take(members)
-                .try_into()
-                .unwrap_or_else(|_| unreachable!("a full group"));
-            let params = group.each_ref().map(|(p, _)| *p);
-            tasks.push(Task::Group(params, group.map(|(_, v)| v)));
-        }
-    }
-    for (_, members) in filling {
-        tasks.extend(members.into_iter().map(|(p, v)| Task::One(p, v)));
-    }
-    tasks
 }
 
 /// Draws a run's initial state: uniform over the spec's initial states (no draw when only one).

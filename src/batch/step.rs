@@ -31,11 +31,11 @@ pub fn step(spec: &Spec, params: &Params, window_cap: usize, run: &mut RunView<'
 }
 
 /// Controller kinds as const-generic parameters (stable Rust has no enum const generics).
-pub(super) const MF: u8 = 0;
-pub(super) const MB: u8 = 1;
-pub(super) const RND: u8 = 2;
-pub(super) const EC: u8 = 3;
-pub(super) const ENTROPY: u8 = 4;
+const MF: u8 = 0;
+const MB: u8 = 1;
+const RND: u8 = 2;
+const EC: u8 = 3;
+const ENTROPY: u8 = 4;
 
 /// The controller a const-generic kind stands for; folded at compile time.
 #[inline(always)]
@@ -59,7 +59,11 @@ pub(super) fn run_until(
     run: &mut RunView<'_>,
     end: u64,
 ) {
-    let human = human_can_act(params, run);
+    // Without a schedule, a human that never interacts and the environment's own reward, no
+    // human function can do anything: the steps skip them.
+    let human = run.plan.is_some()
+        || params.human.interaction != Interaction::None
+        || params.reward_source != RewardSource::Environment;
     // The tidy tasks' 7 actions get their own copy, whose rows have a length known at compile
     // time (loops unrolled, no remainder handling); other action counts share a generic one.
     if spec.n_actions == 7 {
@@ -67,16 +71,6 @@ pub(super) fn run_until(
     } else {
         by_kind::<0>(spec, params, window_cap, run, end, human);
     }
-}
-
-/// Whether anything human (or a schedule) can act in `run`. Without a schedule, a human that
-/// never interacts and the environment's own reward, no human function can do anything: the
-/// steps skip them.
-#[inline]
-pub(super) fn human_can_act(params: &Params, run: &RunView<'_>) -> bool {
-    run.plan.is_some()
-        || params.human.interaction != Interaction::None
-        || params.reward_source != RewardSource::Environment
 }
 
 /// [`run_until`] for `NA` actions (0: read from the spec): the controller and human mode.
@@ -151,7 +145,7 @@ fn run_loop<const KIND: u8, const HUMAN: bool, const NA: usize>(
 
 /// The number of actions: `NA` when the step was compiled for it, else the spec's.
 #[inline(always)]
-pub(super) fn actions<const NA: usize>(spec: &Spec) -> usize {
+fn actions<const NA: usize>(spec: &Spec) -> usize {
     debug_assert!(NA == 0 || NA == spec.n_actions);
     if NA > 0 { NA } else { spec.n_actions }
 }
@@ -204,6 +198,8 @@ fn act<const KIND: u8, const HUMAN: bool, const NA: usize, const BABBLING: bool>
     t_exp: u32,
 ) {
     let babbling = BABBLING;
+    let controller = controller(KIND);
+    let n_a = actions::<NA>(spec);
     let human = run.cursor.human;
     let human = &human;
     let human_active = HUMAN && !babbling && run.cursor.budget_left > 0;
@@ -228,35 +224,6 @@ fn act<const KIND: u8, const HUMAN: bool, const NA: usize, const BABBLING: bool>
         Some(a) => a,
         None => decide::<KIND, HUMAN, NA, BABBLING>(spec, params, run, s),
     };
-    // The human's activity as it was before the takeover spent budget.
-    let at = (s, a, t_exp);
-    after_decision::<KIND, HUMAN, NA, BABBLING>(spec, params, window_cap, run, at, human_active);
-}
-
-/// Steps 6 to 8 of SPEC 3.4 once action `a` is chosen in state `s` at experiment step `t_exp`
-/// (`at = (s, a, t_exp)`): the environment, the human's reactions (when `human_active`, as read
-/// at the start of the step), learning and the accumulators. Shared by the one-run step and the
-/// lane groups.
-#[inline(always)]
-pub(super) fn after_decision<
-    const KIND: u8,
-    const HUMAN: bool,
-    const NA: usize,
-    const BABBLING: bool,
->(
-    spec: &Spec,
-    params: &Params,
-    window_cap: usize,
-    run: &mut RunView<'_>,
-    (s, a, t_exp): (usize, usize, u32),
-    human_active: bool,
-) {
-    let babbling = BABBLING;
-    let controller = controller(KIND);
-    let n_a = actions::<NA>(spec);
-    let human = run.cursor.human;
-    let human = &human;
-    let tables = spec.human.as_ref();
 
     // 6. Environment.
     let sa = spec.sa(s, a);
@@ -376,6 +343,7 @@ fn decide<const KIND: u8, const HUMAN: bool, const NA: usize, const BABBLING: bo
     run: &mut RunView<'_>,
     s: usize,
 ) -> usize {
+    let babbling = BABBLING;
     let n_a = actions::<NA>(spec);
     let row = s * n_a..(s + 1) * n_a;
     let controller = controller(KIND);
@@ -392,49 +360,14 @@ fn decide<const KIND: u8, const HUMAN: bool, const NA: usize, const BABBLING: bo
         || uniform(rng),
     );
 
-    let (cost_mf, cost_mb) = infer::<KIND, NA>(spec, params, run, s, choice.use_mb);
-
-    // 5. Decision: each expert the controller runs computes its (biased) softmax and folds it in.
-    let bonus = if HUMAN {
-        human::bonus_weight(&run.cursor.human, params.congratulation_effect)
-    } else {
-        0.0
-    };
-    let (p_mf, p_mb) = run.scratch.split_at_mut(n_a);
-    let g = &run.bonus[row.clone()];
-    if controller.runs_mf() {
-        softmax_biased(&run.q_mf[row.clone()], g, bonus, params.tau, p_mf);
-        ema_into(&mut run.pavg_mf[row.clone()], p_mf, params.filter_alpha);
-    }
-    if controller.runs_mb() {
-        softmax_biased(&run.q_mb[row.clone()], g, bonus, params.tau, p_mb);
-        ema_into(&mut run.pavg_mb[row], p_mb, params.filter_alpha);
-    }
-    let a = draw(if choice.use_mb { p_mb } else { p_mf }, uniform(run.rng));
-    record_decision::<BABBLING>(run, &choice, cost_mf, cost_mb);
-    a
-}
-
-/// Step 4 of SPEC 3.4 in state `s`: the chosen expert infers, and both at a first decision of a
-/// two-expert controller; each updates its cost average. Returns the (MF, MB) costs.
-#[inline(always)]
-pub(super) fn infer<const KIND: u8, const NA: usize>(
-    spec: &Spec,
-    params: &Params,
-    run: &mut RunView<'_>,
-    s: usize,
-    use_mb: bool,
-) -> (f64, f64) {
-    let n_a = actions::<NA>(spec);
-    let row = s * n_a..(s + 1) * n_a;
-    let controller = controller(KIND);
+    // 4. Inference: the chosen expert, and both at a first decision of a two-expert controller.
     let first = !run.visited[s];
     run.visited[s] = true;
     let both = first && controller.is_dual();
     let wallclock = params.cost_model == CostModel::Wallclock;
     let mut cost_mf = 0.0;
     let mut cost_mb = 0.0;
-    if controller.runs_mf() && (!use_mb || both) {
+    if controller.runs_mf() && (!choice.use_mb || both) {
         let started = wallclock.then(Instant::now);
         // MF inference is reading its row, which the softmax below does.
         std::hint::black_box(&run.q_mf[row.clone()]);
@@ -444,7 +377,7 @@ pub(super) fn infer<const KIND: u8, const NA: usize>(
         };
         run.cost_mf[s] = ema(run.cost_mf[s], cost_mf, params.filter_alpha);
     }
-    if controller.runs_mb() && (use_mb || both) {
+    if controller.runs_mb() && (choice.use_mb || both) {
         let started = wallclock.then(Instant::now);
         // Only value iteration writes the MB's Q table, so its cached row maxima stay valid.
         let report = run.model.value_iteration_cached(
@@ -466,19 +399,26 @@ pub(super) fn infer<const KIND: u8, const NA: usize>(
             run.stats.vi_capped += 1;
         }
     }
-    (cost_mf, cost_mb)
-}
 
-/// Adds one decision's costs and the MC's `choice` to the run's accumulators (not while
-/// babbling).
-#[inline(always)]
-pub(super) fn record_decision<const BABBLING: bool>(
-    run: &mut RunView<'_>,
-    choice: &meta::Choice,
-    cost_mf: f64,
-    cost_mb: f64,
-) {
-    if !BABBLING {
+    // 5. Decision: each expert the controller runs computes its (biased) softmax and folds it in.
+    let bonus = if HUMAN {
+        human::bonus_weight(&run.cursor.human, params.congratulation_effect)
+    } else {
+        0.0
+    };
+    let (p_mf, p_mb) = run.scratch.split_at_mut(n_a);
+    let g = &run.bonus[row.clone()];
+    if controller.runs_mf() {
+        softmax_biased(&run.q_mf[row.clone()], g, bonus, params.tau, p_mf);
+        ema_into(&mut run.pavg_mf[row.clone()], p_mf, params.filter_alpha);
+    }
+    if controller.runs_mb() {
+        softmax_biased(&run.q_mb[row.clone()], g, bonus, params.tau, p_mb);
+        ema_into(&mut run.pavg_mb[row], p_mb, params.filter_alpha);
+    }
+    let a = draw(if choice.use_mb { p_mb } else { p_mf }, uniform(run.rng));
+
+    if !babbling {
         let stats = &mut *run.stats;
         stats.cost_mf += cost_mf;
         stats.cost_mb += cost_mb;
@@ -491,6 +431,7 @@ pub(super) fn record_decision<const BABBLING: bool>(
         run.cursor.window_p_mb += choice.p_mb;
         run.cursor.window_decisions += 1;
     }
+    a
 }
 
 /// Applies the actions of `plan` due at experiment step `t_exp` (none while babbling), in order.
@@ -540,7 +481,7 @@ fn apply_due(plan: &Plan, params: &Params, run: &mut RunView<'_>, t_exp: u32) {
 /// Writes the checkpoint row of experiment step `t_exp` (every `checkpoint` steps and the last;
 /// the caller counts down to it).
 #[inline(never)]
-pub(super) fn record_checkpoint(run: &mut RunView<'_>, t_exp: u32) {
+fn record_checkpoint(run: &mut RunView<'_>, t_exp: u32) {
     let cursor = &mut *run.cursor;
     let stats = &*run.stats;
     let decisions = cursor.window_decisions;
