@@ -34,6 +34,11 @@ fn learn(spec: &Spec) -> Learned {
     let mut q_mb = vec![params.q_init; sa];
     let mut pavg_mf = vec![1.0 / n_a as f64; sa];
     let mut pavg_mb = vec![1.0 / n_a as f64; sa];
+    let mut entropy_mf = vec![f64::NAN; n_s];
+    let mut entropy_mb = vec![f64::NAN; n_s];
+    let mut p_mf = vec![0.0; sa];
+    let mut max_mf = vec![params.q_init; n_s];
+    let mut settled = vec![0; n_s];
     let mut cost_mf = vec![0.0; n_s];
     let mut cost_mb = vec![0.0; n_s];
     let mut visited = vec![false; n_s];
@@ -52,6 +57,11 @@ fn learn(spec: &Spec) -> Learned {
             q_mb: &mut q_mb,
             pavg_mf: &mut pavg_mf,
             pavg_mb: &mut pavg_mb,
+            entropy_mf: &mut entropy_mf,
+            entropy_mb: &mut entropy_mb,
+            p_mf: &mut p_mf,
+            max_mf: &mut max_mf,
+            settled: &mut settled,
             cost_mf: &mut cost_mf,
             cost_mb: &mut cost_mb,
             visited: &mut visited,

@@ -11,148 +11,105 @@ use crate::params::{CongratulationEffect, HumanParams, Interaction};
 use crate::rng::uniform;
 use crate::run_stats::RunStats;
 
-/// Spends one unit of budget at experiment step `t_exp`, recording the step that spends the last.
-#[inline]
-pub fn spend_budget(budget_left: &mut u32, stats: &mut RunStats, t_exp: u32) {
-    *budget_left -= 1;
-    if *budget_left == 0 {
-        stats.budget_exhausted_step = t_exp;
-    }
+/// A run's side of its human's opportunities at experiment step `t_exp` (after babbling, with
+/// budget left): who the human is now, the world's tables of opportunities, and what an
+/// interaction spends, counts and draws.
+pub struct Encounter<'a> {
+    /// The human now.
+    pub human: &'a HumanParams,
+    /// Where the human can act in the run's world now (`None`: nowhere).
+    pub tables: Option<&'a HumanTables>,
+    /// Interactions the human may still give.
+    pub budget_left: &'a mut u32,
+    /// The run's accumulators, where interactions and forgotten opportunities are counted.
+    pub stats: &'a mut RunStats,
+    /// The experiment step (1-based).
+    pub t_exp: u32,
+    /// The run's random stream.
+    pub rng: &'a mut Xoshiro256PlusPlus,
 }
 
-/// Whether the human, at an opportunity, is attentive (one draw).
-#[inline]
-pub fn attentive(human: &HumanParams, rng: &mut Xoshiro256PlusPlus) -> bool {
-    uniform(rng) >= human.forget_prob
-}
-
-/// An opportunity to interact: one draw; an attentive human is counted by `given` and spends one
-/// unit of budget (true), an inattentive one counts a forgotten opportunity (false).
-#[inline(always)]
-fn attend(
-    human: &HumanParams,
-    budget_left: &mut u32,
-    stats: &mut RunStats,
-    t_exp: u32,
-    rng: &mut Xoshiro256PlusPlus,
-    given: impl FnOnce(&mut RunStats),
-) -> bool {
-    if attentive(human, rng) {
-        given(stats);
-        spend_budget(budget_left, stats, t_exp);
-        true
-    } else {
-        stats.forgotten += 1;
-        false
-    }
-}
-
-/// Item 2 of SPEC 3.4 in state `s`: the human's put when an attentive takeover human with
-/// budget left takes over from the robot, else `None`. `active` says whether the human may act at
-/// all this step (after babbling, budget left). Counts takeovers and forgotten opportunities.
-#[inline]
-pub fn takeover(
-    human: &HumanParams,
-    tables: Option<&HumanTables>,
-    active: bool,
-    s: usize,
-    budget_left: &mut u32,
-    stats: &mut RunStats,
-    t_exp: u32,
-    rng: &mut Xoshiro256PlusPlus,
-) -> Option<usize> {
-    if !active || human.interaction != Interaction::Takeover {
-        return None;
-    }
-    let put = tables.map_or(NO_TAKEOVER, |h| h.takeover_action[s]);
-    if put == NO_TAKEOVER {
-        return None;
-    }
-    attend(human, budget_left, stats, t_exp, rng, |s| s.takeovers += 1).then_some(put as usize)
-}
-
-/// Item 7 of SPEC 3.4 for the executed pair `sa`: G(s, a) of Eq. 8, 1 when an attentive human
-/// with budget left congratulates a relevant action (or punishes an error), else 0. Counts what
-/// was given and forgotten.
-#[inline]
-pub fn feedback(
-    human: &HumanParams,
-    tables: Option<&HumanTables>,
-    active: bool,
-    sa: usize,
-    budget_left: &mut u32,
-    stats: &mut RunStats,
-    t_exp: u32,
-    rng: &mut Xoshiro256PlusPlus,
-) -> u8 {
-    if !active || *budget_left == 0 {
-        return 0;
-    }
-    let opportunity = match human.interaction {
-        Interaction::Congratulation => tables.is_some_and(|h| h.relevant[sa]),
-        Interaction::Punishment => tables.is_some_and(|h| h.error[sa]),
-        _ => false,
-    };
-    if !opportunity {
-        return 0;
-    }
-    let congratulation = human.interaction == Interaction::Congratulation;
-    let given = attend(human, budget_left, stats, t_exp, rng, |s| {
-        if congratulation {
-            s.congratulations += 1;
+impl Encounter<'_> {
+    /// An opportunity to interact: one draw; an attentive human is counted by `given` and spends
+    /// one unit of budget, recording the step that spends the last (true); an inattentive one
+    /// counts a forgotten opportunity (false).
+    #[inline(always)]
+    fn attend(&mut self, given: impl FnOnce(&mut RunStats)) -> bool {
+        if uniform(self.rng) >= self.human.forget_prob {
+            given(self.stats);
+            *self.budget_left -= 1;
+            if *self.budget_left == 0 {
+                self.stats.budget_exhausted_step = self.t_exp;
+            }
+            true
         } else {
-            s.punishments += 1;
+            self.stats.forgotten += 1;
+            false
         }
-    });
-    if given { 1 } else { 0 }
-}
+    }
 
-/// SPEC 11.2 after the robot's relevant action `sa`: the state an attentive nuisance human with
-/// budget left leaves (the cube taken back out onto the table), else `None`. Counts nuisances
-/// and forgotten opportunities.
-#[inline]
-pub fn nuisance(
-    human: &HumanParams,
-    tables: Option<&HumanTables>,
-    active: bool,
-    sa: usize,
-    budget_left: &mut u32,
-    stats: &mut RunStats,
-    t_exp: u32,
-    rng: &mut Xoshiro256PlusPlus,
-) -> Option<usize> {
-    if !active || *budget_left == 0 || human.interaction != Interaction::Nuisance {
-        return None;
+    /// Item 2 of SPEC 3.4 in state `s`: the human's put when an attentive takeover human takes
+    /// over from the robot, else `None`.
+    #[inline]
+    pub fn takeover(&mut self, s: usize) -> Option<usize> {
+        if self.human.interaction != Interaction::Takeover {
+            return None;
+        }
+        let put = self.tables.map_or(NO_TAKEOVER, |h| h.takeover_action[s]);
+        if put == NO_TAKEOVER {
+            return None;
+        }
+        self.attend(|s| s.takeovers += 1).then_some(put as usize)
     }
-    let tables = tables?;
-    let undone = tables.nuisance[sa];
-    if !tables.relevant[sa] || undone == NO_NUISANCE {
-        return None;
-    }
-    attend(human, budget_left, stats, t_exp, rng, |s| s.nuisances += 1).then_some(undone as usize)
-}
 
-/// SPEC 11.1 at an arrival in the goal after babbling, where only the human brings reward: the
-/// goal's `reward` if an attentive human with budget left gives it (spending one unit), else 0.
-/// Counts rewards given and forgotten opportunities.
-#[inline]
-pub fn reward(
-    human: &HumanParams,
-    reward: f64,
-    budget_left: &mut u32,
-    stats: &mut RunStats,
-    t_exp: u32,
-    rng: &mut Xoshiro256PlusPlus,
-) -> f64 {
-    if *budget_left == 0 {
-        return 0.0;
+    /// Item 7 of SPEC 3.4 for the executed pair `sa`: G(s, a) of Eq. 8, 1 when an attentive
+    /// human with budget left congratulates a relevant action (or punishes an error), else 0.
+    #[inline]
+    pub fn feedback(&mut self, sa: usize) -> u8 {
+        if *self.budget_left == 0 {
+            return 0;
+        }
+        let congratulation = self.human.interaction == Interaction::Congratulation;
+        let opportunity = match self.human.interaction {
+            Interaction::Congratulation => self.tables.is_some_and(|h| h.relevant[sa]),
+            Interaction::Punishment => self.tables.is_some_and(|h| h.error[sa]),
+            _ => false,
+        };
+        let given = opportunity
+            && self.attend(|s| {
+                if congratulation {
+                    s.congratulations += 1;
+                } else {
+                    s.punishments += 1;
+                }
+            });
+        u8::from(given)
     }
-    if attend(human, budget_left, stats, t_exp, rng, |s| {
-        s.rewards_given += 1
-    }) {
-        reward
-    } else {
-        0.0
+
+    /// SPEC 11.2 after the robot's relevant action `sa`: the state an attentive nuisance human
+    /// with budget left leaves (the cube taken back out onto the table), else `None`.
+    #[inline]
+    pub fn nuisance(&mut self, sa: usize) -> Option<usize> {
+        if *self.budget_left == 0 || self.human.interaction != Interaction::Nuisance {
+            return None;
+        }
+        let tables = self.tables?;
+        let undone = tables.nuisance[sa];
+        if !tables.relevant[sa] || undone == NO_NUISANCE {
+            return None;
+        }
+        self.attend(|s| s.nuisances += 1).then_some(undone as usize)
+    }
+
+    /// SPEC 11.1 at an arrival in the goal after babbling, where only the human brings reward:
+    /// the goal's `reward` if an attentive human with budget left gives it, else 0.
+    #[inline]
+    pub fn reward(&mut self, reward: f64) -> f64 {
+        if *self.budget_left > 0 && self.attend(|s| s.rewards_given += 1) {
+            reward
+        } else {
+            0.0
+        }
     }
 }
 

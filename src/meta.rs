@@ -80,31 +80,33 @@ pub fn p_mb_softmax(v_mf: f64, v_mb: f64, tau: f64) -> f64 {
 }
 
 /// The MC's choice in one state for `controller` (the run's, passed apart so that a step compiled
-/// for one controller folds the match). `uniform` draws a number in [0, 1) when a draw is needed:
-/// once for `rnd` and softmax selection, and only on a tie for argmax selection.
+/// for one controller folds the match), over `n_actions` actions. `bits_mf` and `bits_mb` give
+/// the entropies in bits of the two experts' averaged distributions in that state; each is asked
+/// at most once, and only when the controller reads it (the engine keeps them between visits).
+/// `uniform` draws a number in [0, 1) when a draw is needed: once for `rnd` and softmax
+/// selection, and only on a tie for argmax selection.
+#[allow(clippy::too_many_arguments)]
 #[inline(always)]
 pub fn choose(
     params: &Params,
     controller: Controller,
-    pavg_mf: &[f64],
-    pavg_mb: &[f64],
+    n_actions: usize,
+    bits_mf: impl FnOnce() -> f64,
+    bits_mb: impl FnOnce() -> f64,
     cost_mf: f64,
     cost_mb: f64,
     mut uniform: impl FnMut() -> f64,
 ) -> Choice {
-    let n = pavg_mf.len();
-    // Each distribution's entropy is computed once and serves the values and the report.
+    let n = n_actions;
     let (use_mb, p_mb, chosen_bits) = match controller {
-        Controller::Mf => (false, 0.0, entropy_bits(pavg_mf)),
-        Controller::Mb => (true, 1.0, entropy_bits(pavg_mb)),
+        Controller::Mf => (false, 0.0, bits_mf()),
+        Controller::Mb => (true, 1.0, bits_mb()),
         Controller::Rnd => {
             let use_mb = uniform() < 0.5;
-            let chosen = if use_mb { pavg_mb } else { pavg_mf };
-            (use_mb, 0.5, entropy_bits(chosen))
+            (use_mb, 0.5, if use_mb { bits_mb() } else { bits_mf() })
         }
         Controller::Ec | Controller::Entropy => {
-            let bits_mf = entropy_bits(pavg_mf);
-            let bits_mb = entropy_bits(pavg_mb);
+            let (bits_mf, bits_mb) = (bits_mf(), bits_mb());
             let (v_mf, v_mb) =
                 values_from_bits(params, controller, bits_mf, bits_mb, n, cost_mf, cost_mb);
             let p_mb = p_mb_softmax(v_mf, v_mb, params.tau);
@@ -180,8 +182,9 @@ mod tests {
         let c = choose(
             &params,
             params.controller,
-            &[0.5, 0.5],
-            &[1.0, 0.0],
+            2,
+            || entropy_bits(&[0.5, 0.5]),
+            || entropy_bits(&[1.0, 0.0]),
             0.0,
             0.0,
             || {

@@ -22,6 +22,11 @@ struct Solo {
     q_mb: Vec<f64>,
     pavg_mf: Vec<f64>,
     pavg_mb: Vec<f64>,
+    entropy_mf: Vec<f64>,
+    entropy_mb: Vec<f64>,
+    p_mf: Vec<f64>,
+    max_mf: Vec<f64>,
+    settled: Vec<u8>,
     cost_mf: Vec<f64>,
     cost_mb: Vec<f64>,
     visited: Vec<bool>,
@@ -44,6 +49,11 @@ impl Solo {
             q_mb: vec![params.q_init; sa],
             pavg_mf: vec![1.0 / a as f64; sa],
             pavg_mb: vec![1.0 / a as f64; sa],
+            entropy_mf: vec![f64::NAN; spec.n_states],
+            entropy_mb: vec![f64::NAN; spec.n_states],
+            p_mf: vec![0.0; sa],
+            max_mf: vec![params.q_init; spec.n_states],
+            settled: vec![0; spec.n_states],
             cost_mf: vec![0.0; spec.n_states],
             cost_mb: vec![0.0; spec.n_states],
             visited: vec![false; spec.n_states],
@@ -69,6 +79,11 @@ impl Solo {
             q_mb: &mut self.q_mb,
             pavg_mf: &mut self.pavg_mf,
             pavg_mb: &mut self.pavg_mb,
+            entropy_mf: &mut self.entropy_mf,
+            entropy_mb: &mut self.entropy_mb,
+            p_mf: &mut self.p_mf,
+            max_mf: &mut self.max_mf,
+            settled: &mut self.settled,
             cost_mf: &mut self.cost_mf,
             cost_mb: &mut self.cost_mb,
             visited: &mut self.visited,
@@ -95,6 +110,9 @@ impl Solo {
         for b in 0..a {
             self.q_mf[state * a + b] = if b == action { 1.0 } else { 0.0 };
         }
+        // The row changed behind the step's back: what was kept from it no longer holds.
+        self.settled[state] = 0;
+        self.max_mf[state] = 1.0;
     }
 
     fn state_of(&self, tidy: TidyState, variant: Variant) -> usize {

@@ -22,8 +22,9 @@ fn fingerprint(batch: &Batch, r: usize) -> String {
         wall_time_s: 0.0,
         ..batch.stats()[r]
     };
-    let q_bits =
-        |q: ndarray::ArrayView2<'_, f64>| -> Vec<u64> { q.iter().map(|v| v.to_bits()).collect() };
+    let q_bits = |q: ndarray::CowArray<'_, f64, ndarray::Ix2>| -> Vec<u64> {
+        q.iter().map(|v| v.to_bits()).collect()
+    };
     format!(
         "{stats:?}\n{:?}\n{:?}\n{:?}",
         batch.series(r),

@@ -4,12 +4,14 @@
 //! Runs never share mutable data and each owns its random stream, seeded from (master seed, run
 //! index) only, so results do not depend on batch size, thread count or scheduling order.
 
+mod memory;
 mod step;
 
 use std::sync::Arc;
 use std::time::Instant;
 
-use ndarray::{Array2, Array3};
+use memory::{filled, zeroed};
+use ndarray::{Array2, Array3, CowArray, Ix2};
 use rand_xoshiro::Xoshiro256PlusPlus;
 use rayon::prelude::*;
 
@@ -17,7 +19,7 @@ use crate::env::tidy::Boxes;
 use crate::env::{Spec, StateId};
 use crate::expert::mb::{Model, Observable};
 use crate::params::ConfigError;
-use crate::params::{HumanParams, Interaction, Params, RewardSource};
+use crate::params::{Controller, HumanParams, Interaction, Params, RewardSource};
 pub use crate::rng::{run_rng, uniform};
 pub use crate::run_stats::RunStats;
 use crate::schedule::{self, Plan, Schedule};
@@ -125,6 +127,19 @@ impl Cursor {
     }
 }
 
+/// Flags, per state of an `mf` run without a human, of what a decision there may take from the
+/// previous one instead of computing it again (bit for bit the same).
+pub struct Settled;
+
+impl Settled {
+    /// The kept softmax is that of the state's Q row as it is now: no learning has changed the
+    /// row since (without a human, the bonus term is 0 and the temperature fixed).
+    pub const SOFTMAX: u8 = 1;
+    /// Folding that softmax into the averaged distribution last left the distribution as it
+    /// was, so folding it in again would too.
+    pub const AVERAGE: u8 = 2;
+}
+
 /// Number of checkpoint rows of a run.
 pub fn checkpoint_count(params: &Params) -> usize {
     if params.steps == 0 || params.checkpoint == 0 {
@@ -148,6 +163,11 @@ pub struct Batch {
     q_mb: Array3<f64>,
     pavg_mf: Array3<f64>,
     pavg_mb: Array3<f64>,
+    entropy_mf: Array2<f64>,
+    entropy_mb: Array2<f64>,
+    p_mf: Array3<f64>,
+    max_mf: Array2<f64>,
+    settled: Array2<u8>,
     cost_mf: Array2<f64>,
     cost_mb: Array2<f64>,
     visited: Array2<bool>,
@@ -181,6 +201,19 @@ pub struct RunView<'a> {
     pub pavg_mf: &'a mut [f64],
     /// MB averaged action probabilities, `[state, action]`.
     pub pavg_mb: &'a mut [f64],
+    /// Entropy in bits of each state's MF averaged distribution, NaN when not known since the
+    /// row last changed.
+    pub entropy_mf: &'a mut [f64],
+    /// The same for the MB averaged distribution.
+    pub entropy_mb: &'a mut [f64],
+    /// For an `mf` run without a human: the MF softmax last computed in each state,
+    /// `[state, action]` (empty for other runs).
+    pub p_mf: &'a mut [f64],
+    /// For an `mf` run without a human: the maximum of each state's MF Q row.
+    pub max_mf: &'a mut [f64],
+    /// For an `mf` run without a human: which of `p_mf` and the averaged distribution still
+    /// hold in each state ([`Settled`] flags).
+    pub settled: &'a mut [u8],
     /// MF per-state inference cost average.
     pub cost_mf: &'a mut [f64],
     /// MB per-state inference cost average.
@@ -267,7 +300,6 @@ impl Batch {
         }
         let runs = configs.len();
         let (n_s, n_a) = (spec.n_states, spec.n_actions);
-        let pairs = n_s * n_a;
         let window_cap = configs
             .iter()
             .map(|c| c.params.window_n as usize)
@@ -275,14 +307,49 @@ impl Batch {
             .unwrap_or(1);
         // The MB model's index space: every outcome a run of the batch can observe (SPEC 10).
         let obs = Arc::new(observable(&spec, &plans));
-        let n_outcomes = obs.len();
-        let mut q_mf = Array3::zeros((runs, n_s, n_a));
-        let mut q_mb = Array3::zeros((runs, n_s, n_a));
+        // An expert no run of the batch runs gets no tables at all: for a batch of `mf` runs
+        // that is half of the memory the batch would otherwise fill, and the page faults and
+        // stores to fill it, which cost more than a tenth of such a batch's whole time.
+        let mf_states = if configs.iter().any(|c| c.params.controller.runs_mf()) {
+            n_s
+        } else {
+            0
+        };
+        let mb_states = if configs.iter().any(|c| c.params.controller.runs_mb()) {
+            n_s
+        } else {
+            0
+        };
+        // Only `mf` runs keep their softmax between decisions (two-expert runs would outgrow
+        // 64 KiB of state per tidy run with it).
+        let kept_states = if configs
+            .iter()
+            .any(|c| c.params.controller == Controller::Mf)
+        {
+            n_s
+        } else {
+            0
+        };
+        let (mb_pairs, n_outcomes) = if mb_states > 0 {
+            (n_s * n_a, obs.len())
+        } else {
+            (0, 0)
+        };
+        let mut q_mf: Array3<f64> = zeroed((runs, mf_states, n_a));
+        let mut q_mb: Array3<f64> = zeroed((runs, mb_states, n_a));
         for (r, config) in configs.iter().enumerate() {
-            q_mf.index_axis_mut(ndarray::Axis(0), r)
-                .fill(config.params.q_init);
-            q_mb.index_axis_mut(ndarray::Axis(0), r)
-                .fill(config.params.q_init);
+            // Zeroed memory is left untouched when q_init is +0: its pages are then first
+            // written by the run that uses them.
+            if config.params.q_init.to_bits() != 0 {
+                q_mf.index_axis_mut(ndarray::Axis(0), r)
+                    .fill(config.params.q_init);
+                q_mb.index_axis_mut(ndarray::Axis(0), r)
+                    .fill(config.params.q_init);
+            }
+        }
+        let mut max_mf: Array2<f64> = zeroed((runs, kept_states));
+        for (mut maxima, config) in max_mf.outer_iter_mut().zip(&configs) {
+            maxima.fill(crate::expert::mf::row_max(&vec![config.params.q_init; n_a]));
         }
         let uniform_p = 1.0 / n_a as f64;
         let mut rngs: Vec<Xoshiro256PlusPlus> = configs
@@ -310,24 +377,29 @@ impl Batch {
             window_cap,
             q_mf,
             q_mb,
-            pavg_mf: Array3::from_elem((runs, n_s, n_a), uniform_p),
-            pavg_mb: Array3::from_elem((runs, n_s, n_a), uniform_p),
-            cost_mf: Array2::zeros((runs, n_s)),
-            cost_mb: Array2::zeros((runs, n_s)),
-            visited: Array2::from_elem((runs, n_s), false),
-            bonus: Array3::zeros((runs, n_s, n_a)),
-            ring: Array2::zeros((runs, pairs * window_cap)),
-            ring_len: Array2::zeros((runs, pairs)),
-            ring_pos: Array2::zeros((runs, pairs)),
-            outcome_count: Array2::zeros((runs, n_outcomes)),
-            outcome_reward: Array2::zeros((runs, n_outcomes)),
-            outcome_terminal: Array2::from_elem((runs, n_outcomes), false),
-            known: Array2::from_elem((runs, n_s), false),
-            vi_best: Array2::from_elem((runs, n_s), f64::NAN),
-            vi_dirty: Array2::zeros((runs, obs.dirty_words())),
+            pavg_mf: filled((runs, mf_states, n_a), uniform_p),
+            pavg_mb: filled((runs, mb_states, n_a), uniform_p),
+            entropy_mf: filled((runs, mf_states), f64::NAN),
+            entropy_mb: filled((runs, mb_states), f64::NAN),
+            p_mf: zeroed((runs, kept_states, n_a)),
+            max_mf,
+            settled: zeroed((runs, kept_states)),
+            cost_mf: zeroed((runs, n_s)),
+            cost_mb: zeroed((runs, n_s)),
+            visited: zeroed((runs, n_s)),
+            bonus: zeroed((runs, n_s, n_a)),
+            ring: zeroed((runs, mb_pairs * window_cap)),
+            ring_len: zeroed((runs, mb_pairs)),
+            ring_pos: zeroed((runs, mb_pairs)),
+            outcome_count: zeroed((runs, n_outcomes)),
+            outcome_reward: zeroed((runs, n_outcomes)),
+            outcome_terminal: zeroed((runs, n_outcomes)),
+            known: zeroed((runs, mb_states)),
+            vi_best: filled((runs, mb_states), f64::NAN),
+            vi_dirty: zeroed((runs, if mb_states > 0 { obs.dirty_words() } else { 0 })),
             vi_terms: vec![0; runs],
             obs,
-            scratch: Array2::zeros((runs, 2 * n_a)),
+            scratch: zeroed((runs, 2 * n_a)),
             rngs,
             cursors,
             stats: vec![RunStats::default(); runs],
@@ -364,6 +436,11 @@ impl Batch {
             ("q_mb", bytes(&self.q_mb)),
             ("pavg_mf", bytes(&self.pavg_mf)),
             ("pavg_mb", bytes(&self.pavg_mb)),
+            ("entropy_mf", bytes(&self.entropy_mf)),
+            ("entropy_mb", bytes(&self.entropy_mb)),
+            ("p_mf", bytes(&self.p_mf)),
+            ("max_mf", bytes(&self.max_mf)),
+            ("settled", bytes(&self.settled)),
             ("cost_mf", bytes(&self.cost_mf)),
             ("cost_mb", bytes(&self.cost_mb)),
             ("visited", bytes(&self.visited)),
@@ -424,25 +501,44 @@ impl Batch {
         &self.series[self.series_start[r]..self.series_start[r + 1]]
     }
 
-    /// MF Q table of run `r`, `[state, action]`.
-    pub fn q_mf(&self, r: usize) -> ndarray::ArrayView2<'_, f64> {
-        self.q_mf.index_axis(ndarray::Axis(0), r)
+    /// MF Q table of run `r`, `[state, action]`. A run whose controller does not run the MF
+    /// expert has it as it started (`q_init` everywhere), also when the batch holds no MF table.
+    pub fn q_mf(&self, r: usize) -> CowArray<'_, f64, Ix2> {
+        self.row_or(&self.q_mf, r, self.configs[r].params.q_init)
     }
 
-    /// MB Q table of run `r`, `[state, action]`.
-    pub fn q_mb(&self, r: usize) -> ndarray::ArrayView2<'_, f64> {
-        self.q_mb.index_axis(ndarray::Axis(0), r)
+    /// MB Q table of run `r`, `[state, action]`, as [`q_mf`](Batch::q_mf) is for MF.
+    pub fn q_mb(&self, r: usize) -> CowArray<'_, f64, Ix2> {
+        self.row_or(&self.q_mb, r, self.configs[r].params.q_init)
     }
 
-    /// Averaged action probabilities of run `r`: (MF, MB), each `[state, action]`.
+    /// Averaged action probabilities of run `r`: (MF, MB), each `[state, action]`; uniform for
+    /// an expert the run's controller does not run.
     pub fn averaged_probabilities(
         &self,
         r: usize,
-    ) -> (ndarray::ArrayView2<'_, f64>, ndarray::ArrayView2<'_, f64>) {
+    ) -> (CowArray<'_, f64, Ix2>, CowArray<'_, f64, Ix2>) {
+        let uniform = 1.0 / self.spec.n_actions as f64;
         (
-            self.pavg_mf.index_axis(ndarray::Axis(0), r),
-            self.pavg_mb.index_axis(ndarray::Axis(0), r),
+            self.row_or(&self.pavg_mf, r, uniform),
+            self.row_or(&self.pavg_mb, r, uniform),
         )
+    }
+
+    /// Run `r`'s `[state, action]` table of `tables`, or one of `initial` where the batch holds
+    /// none (no run of it runs that expert).
+    fn row_or<'b>(
+        &'b self,
+        tables: &'b Array3<f64>,
+        r: usize,
+        initial: f64,
+    ) -> CowArray<'b, f64, Ix2> {
+        if tables.shape()[1] == 0 {
+            let shape = (self.spec.n_states, self.spec.n_actions);
+            CowArray::from(Array2::from_elem(shape, initial))
+        } else {
+            CowArray::from(tables.index_axis(ndarray::Axis(0), r))
+        }
     }
 
     /// Number of states the MB expert of run `r` knows: the start of at least one learned
@@ -457,6 +553,10 @@ impl Batch {
         let mut t = Array3::zeros((spec.n_states, spec.n_actions, spec.n_states));
         let counts = self.outcome_count.row(r);
         let lens = self.ring_len.row(r);
+        if lens.is_empty() {
+            // No run of the batch runs the MB expert: nothing was learned.
+            return t;
+        }
         for s in 0..spec.n_states {
             for a in 0..spec.n_actions {
                 let sa = spec.sa(s, a);
@@ -496,53 +596,55 @@ impl Batch {
 
     /// Splits the batch's arrays into one [`RunView`] per run.
     fn views(&mut self) -> Vec<(&Params, RunView<'_>)> {
-        let (n_s, n_a) = (self.spec.n_states, self.spec.n_actions);
-        let sa = n_s * n_a;
-        let n_o = self.obs.len();
-        fn rows<T>(a: &mut [T], len: usize) -> std::slice::ChunksMut<'_, T> {
-            a.chunks_mut(len.max(1))
+        let runs = self.configs.len();
+        // Each array holds `runs` equal rows; an expert's arrays are empty when no run of the
+        // batch runs it, and then every run gets an empty row.
+        fn rows<T>(a: &mut [T], runs: usize) -> Rows<'_, T> {
+            let len = a.len().checked_div(runs).unwrap_or(0);
+            Rows { rest: a, len }
         }
-        let mut q_mf = rows(self.q_mf.as_slice_mut().expect("standard layout"), sa);
-        let mut q_mb = rows(self.q_mb.as_slice_mut().expect("standard layout"), sa);
-        let mut pavg_mf = rows(self.pavg_mf.as_slice_mut().expect("standard layout"), sa);
-        let mut pavg_mb = rows(self.pavg_mb.as_slice_mut().expect("standard layout"), sa);
-        let mut cost_mf = rows(self.cost_mf.as_slice_mut().expect("standard layout"), n_s);
-        let mut cost_mb = rows(self.cost_mb.as_slice_mut().expect("standard layout"), n_s);
-        let mut visited = rows(self.visited.as_slice_mut().expect("standard layout"), n_s);
-        let mut bonus = rows(self.bonus.as_slice_mut().expect("standard layout"), sa);
-        let mut ring = rows(
-            self.ring.as_slice_mut().expect("standard layout"),
-            sa * self.window_cap,
+        let mut q_mf = rows(self.q_mf.as_slice_mut().expect("standard layout"), runs);
+        let mut q_mb = rows(self.q_mb.as_slice_mut().expect("standard layout"), runs);
+        let mut pavg_mf = rows(self.pavg_mf.as_slice_mut().expect("standard layout"), runs);
+        let mut pavg_mb = rows(self.pavg_mb.as_slice_mut().expect("standard layout"), runs);
+        let mut entropy_mf = rows(
+            self.entropy_mf.as_slice_mut().expect("standard layout"),
+            runs,
         );
-        let mut ring_len = rows(self.ring_len.as_slice_mut().expect("standard layout"), sa);
-        let mut ring_pos = rows(self.ring_pos.as_slice_mut().expect("standard layout"), sa);
+        let mut entropy_mb = rows(
+            self.entropy_mb.as_slice_mut().expect("standard layout"),
+            runs,
+        );
+        let mut p_mf = rows(self.p_mf.as_slice_mut().expect("standard layout"), runs);
+        let mut max_mf = rows(self.max_mf.as_slice_mut().expect("standard layout"), runs);
+        let mut settled = rows(self.settled.as_slice_mut().expect("standard layout"), runs);
+        let mut cost_mf = rows(self.cost_mf.as_slice_mut().expect("standard layout"), runs);
+        let mut cost_mb = rows(self.cost_mb.as_slice_mut().expect("standard layout"), runs);
+        let mut visited = rows(self.visited.as_slice_mut().expect("standard layout"), runs);
+        let mut bonus = rows(self.bonus.as_slice_mut().expect("standard layout"), runs);
+        let mut ring = rows(self.ring.as_slice_mut().expect("standard layout"), runs);
+        let mut ring_len = rows(self.ring_len.as_slice_mut().expect("standard layout"), runs);
+        let mut ring_pos = rows(self.ring_pos.as_slice_mut().expect("standard layout"), runs);
         let mut count = rows(
             self.outcome_count.as_slice_mut().expect("standard layout"),
-            n_o,
+            runs,
         );
         let mut reward = rows(
             self.outcome_reward.as_slice_mut().expect("standard layout"),
-            n_o,
+            runs,
         );
         let mut terminal = rows(
             self.outcome_terminal
                 .as_slice_mut()
                 .expect("standard layout"),
-            n_o,
+            runs,
         );
-        let mut known = rows(self.known.as_slice_mut().expect("standard layout"), n_s);
-        let mut vi_best = rows(self.vi_best.as_slice_mut().expect("standard layout"), n_s);
-        let words = self.vi_dirty.ncols();
-        let mut vi_dirty = rows(
-            self.vi_dirty.as_slice_mut().expect("standard layout"),
-            words,
-        );
+        let mut known = rows(self.known.as_slice_mut().expect("standard layout"), runs);
+        let mut vi_best = rows(self.vi_best.as_slice_mut().expect("standard layout"), runs);
+        let mut vi_dirty = rows(self.vi_dirty.as_slice_mut().expect("standard layout"), runs);
         let mut vi_terms = self.vi_terms.iter_mut();
         let obs: &Observable = &self.obs;
-        let mut scratch = rows(
-            self.scratch.as_slice_mut().expect("standard layout"),
-            2 * n_a,
-        );
+        let mut scratch = rows(self.scratch.as_slice_mut().expect("standard layout"), runs);
         let mut series_rest: &mut [Checkpoint] = &mut self.series;
         let plans: &[Plan] = &self.plans;
         let mut views = Vec::with_capacity(self.configs.len());
@@ -561,6 +663,11 @@ impl Batch {
                 q_mb: q_mb.next().expect("one row per run"),
                 pavg_mf: pavg_mf.next().expect("one row per run"),
                 pavg_mb: pavg_mb.next().expect("one row per run"),
+                entropy_mf: entropy_mf.next().expect("one row per run"),
+                entropy_mb: entropy_mb.next().expect("one row per run"),
+                p_mf: p_mf.next().expect("one row per run"),
+                max_mf: max_mf.next().expect("one row per run"),
+                settled: settled.next().expect("one row per run"),
                 cost_mf: cost_mf.next().expect("one row per run"),
                 cost_mb: cost_mb.next().expect("one row per run"),
                 visited: visited.next().expect("one row per run"),
@@ -588,6 +695,26 @@ impl Batch {
             views.push((&config.params, view));
         }
         views
+    }
+}
+
+/// Consecutive rows of `len` elements of a slice, handed out one by one; empty rows forever when
+/// `len` is 0.
+struct Rows<'a, T> {
+    rest: &'a mut [T],
+    len: usize,
+}
+
+impl<'a, T> Iterator for Rows<'a, T> {
+    type Item = &'a mut [T];
+
+    fn next(&mut self) -> Option<&'a mut [T]> {
+        if self.rest.len() < self.len {
+            return None;
+        }
+        let (row, rest) = std::mem::take(&mut self.rest).split_at_mut(self.len);
+        self.rest = rest;
+        Some(row)
     }
 }
 

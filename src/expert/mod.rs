@@ -133,12 +133,17 @@ pub fn ema(old: f64, new: f64, alpha: f64) -> f64 {
     (1.0 - alpha) * old + alpha * new
 }
 
-/// Folds a distribution into its moving average, element by element.
+/// Folds a distribution into its moving average, element by element; whether any element
+/// changed (bit for bit), so that what was computed from the average can be kept when none did.
 #[inline]
-pub fn ema_into(avg: &mut [f64], new: &[f64], alpha: f64) {
+pub fn ema_into(avg: &mut [f64], new: &[f64], alpha: f64) -> bool {
+    let mut changed = false;
     for (a, &n) in avg.iter_mut().zip(new) {
-        *a = ema(*a, n, alpha);
+        let folded = ema(*a, n, alpha);
+        changed |= folded.to_bits() != a.to_bits();
+        *a = folded;
     }
+    changed
 }
 
 /// Index drawn from distribution `p` with a uniform `u` in [0, 1). Rounding can leave the
@@ -198,8 +203,11 @@ mod tests {
     fn moving_average_weights_the_new_value_by_alpha() {
         assert!((ema(1.0, 0.0, 0.6) - 0.4).abs() < 1e-15);
         let mut avg = [0.5, 0.5];
-        ema_into(&mut avg, &[1.0, 0.0], 0.6);
+        assert!(ema_into(&mut avg, &[1.0, 0.0], 0.6));
         assert!((avg[0] - 0.8).abs() < 1e-15 && (avg[1] - 0.2).abs() < 1e-15);
+        // A distribution folded into itself stays what it is, and says so.
+        let mut same = [0.25, 0.75];
+        assert!(!ema_into(&mut same, &[0.25, 0.75], 0.6));
     }
 
     #[test]
