@@ -4,13 +4,11 @@
 //! Runs never share mutable data and each owns its random stream, seeded from (master seed, run
 //! index) only, so results do not depend on batch size, thread count or scheduling order.
 
-mod memory;
 mod step;
 
 use std::sync::Arc;
 use std::time::Instant;
 
-use memory::{filled, zeroed};
 use ndarray::{Array2, Array3, CowArray, Ix2};
 use rand_xoshiro::Xoshiro256PlusPlus;
 use rayon::prelude::*;
@@ -335,8 +333,8 @@ impl Batch {
         } else {
             (0, 0)
         };
-        let mut q_mf: Array3<f64> = zeroed((runs, mf_states, n_a));
-        let mut q_mb: Array3<f64> = zeroed((runs, mb_states, n_a));
+        let mut q_mf: Array3<f64> = Array3::zeros((runs, mf_states, n_a));
+        let mut q_mb: Array3<f64> = Array3::zeros((runs, mb_states, n_a));
         for (r, config) in configs.iter().enumerate() {
             // Zeroed memory is left untouched when q_init is +0: its pages are then first
             // written by the run that uses them.
@@ -347,7 +345,7 @@ impl Batch {
                     .fill(config.params.q_init);
             }
         }
-        let mut max_mf: Array2<f64> = zeroed((runs, kept_states));
+        let mut max_mf: Array2<f64> = Array2::zeros((runs, kept_states));
         for (mut maxima, config) in max_mf.outer_iter_mut().zip(&configs) {
             maxima.fill(crate::expert::mf::row_max(&vec![config.params.q_init; n_a]));
         }
@@ -377,29 +375,29 @@ impl Batch {
             window_cap,
             q_mf,
             q_mb,
-            pavg_mf: filled((runs, mf_states, n_a), uniform_p),
-            pavg_mb: filled((runs, mb_states, n_a), uniform_p),
-            entropy_mf: filled((runs, mf_states), f64::NAN),
-            entropy_mb: filled((runs, mb_states), f64::NAN),
-            p_mf: zeroed((runs, kept_states, n_a)),
+            pavg_mf: Array3::from_elem((runs, mf_states, n_a), uniform_p),
+            pavg_mb: Array3::from_elem((runs, mb_states, n_a), uniform_p),
+            entropy_mf: Array2::from_elem((runs, mf_states), f64::NAN),
+            entropy_mb: Array2::from_elem((runs, mb_states), f64::NAN),
+            p_mf: Array3::zeros((runs, kept_states, n_a)),
             max_mf,
-            settled: zeroed((runs, kept_states)),
-            cost_mf: zeroed((runs, n_s)),
-            cost_mb: zeroed((runs, n_s)),
-            visited: zeroed((runs, n_s)),
-            bonus: zeroed((runs, n_s, n_a)),
-            ring: zeroed((runs, mb_pairs * window_cap)),
-            ring_len: zeroed((runs, mb_pairs)),
-            ring_pos: zeroed((runs, mb_pairs)),
-            outcome_count: zeroed((runs, n_outcomes)),
-            outcome_reward: zeroed((runs, n_outcomes)),
-            outcome_terminal: zeroed((runs, n_outcomes)),
-            known: zeroed((runs, mb_states)),
-            vi_best: filled((runs, mb_states), f64::NAN),
-            vi_dirty: zeroed((runs, if mb_states > 0 { obs.dirty_words() } else { 0 })),
+            settled: Array2::zeros((runs, kept_states)),
+            cost_mf: Array2::zeros((runs, n_s)),
+            cost_mb: Array2::zeros((runs, n_s)),
+            visited: Array2::from_elem((runs, n_s), false),
+            bonus: Array3::zeros((runs, n_s, n_a)),
+            ring: Array2::zeros((runs, mb_pairs * window_cap)),
+            ring_len: Array2::zeros((runs, mb_pairs)),
+            ring_pos: Array2::zeros((runs, mb_pairs)),
+            outcome_count: Array2::zeros((runs, n_outcomes)),
+            outcome_reward: Array2::zeros((runs, n_outcomes)),
+            outcome_terminal: Array2::from_elem((runs, n_outcomes), false),
+            known: Array2::from_elem((runs, mb_states), false),
+            vi_best: Array2::from_elem((runs, mb_states), f64::NAN),
+            vi_dirty: Array2::zeros((runs, if mb_states > 0 { obs.dirty_words() } else { 0 })),
             vi_terms: vec![0; runs],
             obs,
-            scratch: zeroed((runs, 2 * n_a)),
+            scratch: Array2::zeros((runs, 2 * n_a)),
             rngs,
             cursors,
             stats: vec![RunStats::default(); runs],
