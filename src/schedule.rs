@@ -333,19 +333,6 @@ impl Schedule {
     pub fn first_step(&self) -> Option<u32> {
         self.changes.iter().map(|c| c.step).min()
     }
-
-    /// Whether some event may make the human a nuisance.
-    pub fn may_be_nuisance(&self) -> bool {
-        self.changes.iter().any(|c| {
-            matches!(
-                c.event,
-                Event::Human(
-                    HumanChange::Interaction(Interaction::Nuisance)
-                        | HumanChange::Profile(Profile::Nuisance)
-                )
-            )
-        })
-    }
 }
 
 /// A change of the human (SPEC 10 "Human"), applied to the run's own copy of its parameters.
@@ -415,11 +402,6 @@ impl Plan {
             actions: Vec::new(),
             nuisance: false,
         }
-    }
-
-    /// Whether this plan changes nothing and starts in `spec` itself.
-    pub fn is_trivial(&self) -> bool {
-        self.actions.is_empty()
     }
 }
 

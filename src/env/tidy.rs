@@ -160,11 +160,6 @@ impl TidyState {
         self.places.iter().position(|&p| p == Place::Hand)
     }
 
-    /// Whether this is the rewarded state of the task.
-    pub fn is_goal(&self, variant: Variant) -> bool {
-        self.is_goal_with(variant, Boxes::RGB)
-    }
-
     /// Whether this is the rewarded state of the task under the box assignment `boxes` (task 1).
     pub fn is_goal_with(&self, variant: Variant, boxes: Boxes) -> bool {
         match variant {
@@ -247,12 +242,8 @@ impl TidyState {
         }
     }
 
-    /// The human's put when the robot holds a cube (SPEC 5, takeover).
-    pub fn takeover_action(&self, variant: Variant) -> Option<usize> {
-        self.takeover_action_with(variant, Boxes::RGB)
-    }
-
-    /// [`takeover_action`](TidyState::takeover_action) under the box assignment `boxes`.
+    /// The human's put when the robot holds a cube (SPEC 5, takeover), under the box
+    /// assignment `boxes`.
     pub fn takeover_action_with(&self, variant: Variant, boxes: Boxes) -> Option<usize> {
         let cube = self.held()?;
         Some(match variant {
