@@ -6,8 +6,6 @@
 
 use std::collections::{HashMap, VecDeque};
 
-use serde::{Deserialize, Serialize};
-
 use super::{HumanTables, NO_NUISANCE, NO_TAKEOVER, Spec, StateId};
 
 /// Number of cubes (red, green, blue).
@@ -23,8 +21,7 @@ const COLOURS: [&str; N_CUBES] = ["R", "G", "B"];
 /// permutation of `rgb` (`brg` puts the red cube in the blue box, the green cube in the red box,
 /// the blue cube in the green box). State ids do not depend on it; the goal, the human's relevant
 /// actions, errors and takeover puts do.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
-#[serde(into = "String", try_from = "String")]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub struct Boxes(pub [u8; N_CUBES]);
 
 impl Boxes {
@@ -80,19 +77,6 @@ impl std::fmt::Display for Boxes {
             f.write_str(["r", "g", "b"][b as usize])?;
         }
         Ok(())
-    }
-}
-
-impl From<Boxes> for String {
-    fn from(b: Boxes) -> String {
-        b.to_string()
-    }
-}
-
-impl TryFrom<String> for Boxes {
-    type Error = String;
-    fn try_from(text: String) -> Result<Boxes, String> {
-        Boxes::parse(&text)
     }
 }
 
