@@ -10,6 +10,7 @@
 use std::fmt;
 use std::sync::Arc;
 
+use clap::ValueEnum;
 use thiserror::Error;
 
 use crate::env::tidy::{self, Boxes};
@@ -32,18 +33,8 @@ pub enum Event {
     Boxes(Boxes),
     /// `delete=S-T,...`: every outcome S -> T of the listed ordered pairs is removed (`json:`).
     Delete(Vec<(StateId, StateId)>),
-    /// `interaction=TYPE`.
-    Interaction(Interaction),
-    /// `budget=N`: the budget left from this step on.
-    Budget(u32),
-    /// `forget=P`: the human's forget probability.
-    Forget(f64),
-    /// `zeta=Z`: the congratulation (or punishment) weight.
-    Zeta(f64),
-    /// `profile=NAME`: a built-in human (type, budget left, forget, zeta, reward source).
-    Profile(Profile),
-    /// `reward_source=environment|human` (SPEC 11.1).
-    RewardSource(RewardSource),
+    /// The human changes.
+    Human(HumanChange),
 }
 
 /// One event at experiment step `step` (1-based, babbling not counted).
@@ -177,47 +168,42 @@ impl Change {
                 }
                 Event::Delete(pairs)
             }
-            "interaction" => Event::Interaction(
-                [
-                    Interaction::None,
-                    Interaction::Congratulation,
-                    Interaction::Takeover,
-                    Interaction::Punishment,
-                    Interaction::Nuisance,
-                ]
-                .into_iter()
-                .find(|i| i.name() == value)
-                .ok_or_else(|| {
-                    fail(
-                        text,
-                        format!(
-                            "interaction '{value}' is not one of none, congratulation, \
-                             takeover, punishment, nuisance"
-                        ),
-                    )
-                })?,
-            ),
-            "budget" => Event::Budget(value.parse().map_err(|_| {
+            "interaction" => Event::Human(HumanChange::Interaction(
+                Interaction::value_variants()
+                    .iter()
+                    .copied()
+                    .find(|i| i.name() == value)
+                    .ok_or_else(|| {
+                        fail(
+                            text,
+                            format!(
+                                "interaction '{value}' is not one of none, congratulation, \
+                                 takeover, punishment, nuisance"
+                            ),
+                        )
+                    })?,
+            )),
+            "budget" => Event::Human(HumanChange::Budget(value.parse().map_err(|_| {
                 fail(
                     text,
                     format!("budget '{value}' is not a whole number from 0 to 4294967295"),
                 )
-            })?),
+            })?)),
             "forget" | "forget_prob" => {
                 let p = number("a probability in [0, 1]")?;
                 if !(0.0..=1.0).contains(&p) {
                     return Err(fail(text, format!("forget '{value}' is not in [0, 1]")));
                 }
-                Event::Forget(p)
+                Event::Human(HumanChange::Forget(p))
             }
             "zeta" => {
                 let z = number("a number from 0 to 1e12")?;
                 if !(0.0..=crate::params::MAGNITUDE_MAX).contains(&z) {
                     return Err(fail(text, format!("zeta '{value}' is not from 0 to 1e12")));
                 }
-                Event::Zeta(z)
+                Event::Human(HumanChange::Zeta(z))
             }
-            "profile" => Event::Profile(
+            "profile" => Event::Human(HumanChange::Profile(
                 Profile::PRESETS
                     .into_iter()
                     .find(|p| p.name() == value)
@@ -232,17 +218,19 @@ impl Change {
                             ),
                         )
                     })?,
-            ),
-            "reward_source" => Event::RewardSource(match value {
-                "environment" => RewardSource::Environment,
-                "human" => RewardSource::Human,
-                _ => {
-                    return Err(fail(
-                        text,
-                        format!("reward_source '{value}' is not environment or human"),
-                    ));
-                }
-            }),
+            )),
+            "reward_source" => Event::Human(HumanChange::RewardSource(
+                RewardSource::value_variants()
+                    .iter()
+                    .copied()
+                    .find(|r| r.name() == value)
+                    .ok_or_else(|| {
+                        fail(
+                            text,
+                            format!("reward_source '{value}' is not environment or human"),
+                        )
+                    })?,
+            )),
             _ => {
                 let hint = crate::suggest::hint(&key, EVENT_KEYS.iter().copied());
                 return Err(fail(
@@ -281,12 +269,20 @@ impl fmt::Display for Event {
                 }
                 Ok(())
             }
-            Event::Interaction(i) => write!(f, "interaction={}", i.name()),
-            Event::Budget(n) => write!(f, "budget={n}"),
-            Event::Forget(p) => write!(f, "forget={p}"),
-            Event::Zeta(z) => write!(f, "zeta={z}"),
-            Event::Profile(p) => write!(f, "profile={}", p.name()),
-            Event::RewardSource(r) => write!(f, "reward_source={}", r.name()),
+            Event::Human(h) => write!(f, "{h}"),
+        }
+    }
+}
+
+impl fmt::Display for HumanChange {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            HumanChange::Interaction(i) => write!(f, "interaction={}", i.name()),
+            HumanChange::Budget(n) => write!(f, "budget={n}"),
+            HumanChange::Forget(p) => write!(f, "forget={p}"),
+            HumanChange::Zeta(z) => write!(f, "zeta={z}"),
+            HumanChange::Profile(p) => write!(f, "profile={}", p.name()),
+            HumanChange::RewardSource(r) => write!(f, "reward_source={}", r.name()),
         }
     }
 }
@@ -337,32 +333,23 @@ impl Schedule {
     pub fn first_step(&self) -> Option<u32> {
         self.changes.iter().map(|c| c.step).min()
     }
-
-    /// Whether some event may make the human a nuisance.
-    pub fn may_be_nuisance(&self) -> bool {
-        self.changes.iter().any(|c| {
-            matches!(
-                c.event,
-                Event::Interaction(Interaction::Nuisance) | Event::Profile(Profile::Nuisance)
-            )
-        })
-    }
 }
 
 /// A change of the human (SPEC 10 "Human"), applied to the run's own copy of its parameters.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum HumanChange {
-    /// New interaction type.
+    /// `interaction=TYPE`.
     Interaction(Interaction),
-    /// Budget left from now on.
+    /// `budget=N`: the budget left from this step on.
     Budget(u32),
-    /// New forget probability.
+    /// `forget=P`: the human's forget probability.
     Forget(f64),
-    /// New zeta.
+    /// `zeta=Z`: the congratulation (or punishment) weight.
     Zeta(f64),
-    /// A built-in profile (resolved for the run's controller when applied).
+    /// `profile=NAME`: a built-in human (type, budget left, forget, zeta, reward source),
+    /// resolved for the run's controller when applied.
     Profile(Profile),
-    /// New reward source.
+    /// `reward_source=environment|human` (SPEC 11.1).
     RewardSource(RewardSource),
 }
 
@@ -415,11 +402,6 @@ impl Plan {
             actions: Vec::new(),
             nuisance: false,
         }
-    }
-
-    /// Whether this plan changes nothing and starts in `spec` itself.
-    pub fn is_trivial(&self) -> bool {
-        self.actions.is_empty()
     }
 }
 
@@ -569,24 +551,22 @@ pub fn compile(
                     delete(&worlds[worlds.len() - 1], pairs).map_err(|r| fail(&event, r))?;
                 enter(&mut worlds, Arc::new(world), goal)
             }
-            Event::Interaction(i) => {
+            Event::Human(h @ HumanChange::Interaction(i)) => {
                 if *i != Interaction::None && !has_human {
                     return Err(fail(&event, no_human(task, i.name())));
                 }
                 nuisance |= *i == Interaction::Nuisance;
-                Action::Human(HumanChange::Interaction(*i))
+                Action::Human(*h)
             }
-            Event::Profile(p) => {
+            Event::Human(h @ HumanChange::Profile(p)) => {
                 let human = p.human(params.controller).unwrap_or_default();
                 if human.interaction != Interaction::None && !has_human {
                     return Err(fail(&event, no_human(task, human.interaction.name())));
                 }
                 nuisance |= human.interaction == Interaction::Nuisance;
-                Action::Human(HumanChange::Profile(*p))
+                Action::Human(*h)
             }
-            Event::Budget(n) => Action::Human(HumanChange::Budget(*n)),
-            Event::Forget(p) => Action::Human(HumanChange::Forget(*p)),
-            Event::Zeta(z) => {
+            Event::Human(h @ HumanChange::Zeta(z)) => {
                 let changed = Params {
                     human: crate::params::HumanParams {
                         zeta: *z,
@@ -597,9 +577,9 @@ pub fn compile(
                 changed
                     .validate_for_reward(start.goal_reward)
                     .map_err(|e| fail(&event, e.to_string()))?;
-                Action::Human(HumanChange::Zeta(*z))
+                Action::Human(*h)
             }
-            Event::RewardSource(r) => Action::Human(HumanChange::RewardSource(*r)),
+            Event::Human(human) => Action::Human(*human),
         };
         actions.push((change.step, action));
     }

@@ -205,16 +205,7 @@ pub fn check_time(estimate: &Estimate, shrink: &Shrink) -> Result<(), SizeError>
 #[allow(clippy::useless_conversion)]
 pub fn free_bytes(path: &Path) -> Option<u64> {
     use std::os::unix::ffi::OsStrExt;
-    let existing = path
-        .ancestors()
-        .map(|a| {
-            if a.as_os_str().is_empty() {
-                Path::new(".")
-            } else {
-                a
-            }
-        })
-        .find(|a| a.exists())?;
+    let existing = nearest_existing(path)?;
     let c = std::ffi::CString::new(existing.as_os_str().as_bytes()).ok()?;
     let mut st = std::mem::MaybeUninit::<libc::statvfs>::uninit();
     // SAFETY: `c` is a valid NUL-terminated path and `st` a properly sized out-parameter.
@@ -230,6 +221,20 @@ pub fn free_bytes(path: &Path) -> Option<u64> {
     }
     let free = u64::from(st.f_bavail).saturating_mul(u64::from(st.f_frsize));
     Some(free)
+}
+
+/// `path` itself or its nearest ancestor that exists, a relative path's empty ancestor read as
+/// `.`; `None` when nothing of it exists.
+pub fn nearest_existing(path: &Path) -> Option<&Path> {
+    path.ancestors()
+        .map(|a| {
+            if a.as_os_str().is_empty() {
+                Path::new(".")
+            } else {
+                a
+            }
+        })
+        .find(|a| a.exists())
 }
 
 /// Bytes of the files under `dir` (recursively; 0 if it does not exist): results a job will

@@ -12,6 +12,7 @@ use std::path::Path;
 
 use crate::analysis::AnalysisError;
 use crate::analysis::dataset::{self, Filter, RUN_IDENTITY, ReadOptions, Table, Value};
+use crate::analysis::stats;
 use crate::plot::{LineChart, Series};
 
 /// The series column a curve shows.
@@ -131,7 +132,13 @@ pub fn mean_curves(points: &[Point<'_>], order: &[String]) -> Vec<Curve> {
                 n: Vec::with_capacity(steps.len()),
             };
             for (&step, values) in steps {
-                let (mean, sem) = mean_sem(values);
+                let mean = stats::mean(values);
+                // A single run has no spread to estimate: its band is drawn with zero width.
+                let sem = if values.len() < 2 {
+                    0.0
+                } else {
+                    stats::sem(values)
+                };
                 curve.steps.push(step);
                 curve.mean.push(mean);
                 curve.sem.push(sem);
@@ -140,17 +147,6 @@ pub fn mean_curves(points: &[Point<'_>], order: &[String]) -> Vec<Curve> {
             Some(curve)
         })
         .collect()
-}
-
-/// Mean and standard error of the mean (sample sd over sqrt(n); 0 for fewer than two values).
-fn mean_sem(values: &[f64]) -> (f64, f64) {
-    let n = values.len() as f64;
-    let mean = values.iter().sum::<f64>() / n;
-    if values.len() < 2 {
-        return (mean, 0.0);
-    }
-    let ss: f64 = values.iter().map(|v| (v - mean) * (v - mean)).sum();
-    (mean, (ss / (n - 1.0)).sqrt() / n.sqrt())
 }
 
 /// The steps of every event of a canonical schedule (`1601:goal=34;1601:world=json:P`), in

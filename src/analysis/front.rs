@@ -20,14 +20,6 @@ use crate::analysis::stats;
 /// maximise learning quality (minimise the controlling expert's mean normalised entropy).
 pub const DEFAULT_OBJECTIVES: &str = "total_reward:max,cost_total:min,mean_entropy_chosen:min";
 
-/// [`DEFAULT_OBJECTIVES`], parsed.
-pub fn default_objectives() -> Vec<Objective> {
-    DEFAULT_OBJECTIVES
-        .split(',')
-        .map(|s| Objective::parse(s).expect("the defaults parse"))
-        .collect()
-}
-
 /// The parameter columns whose values make results incomparable: a reward depends on the task
 /// and on how many steps a run had to collect it.
 pub const INCOMPARABLE: [&str; 2] = ["task", "steps"];

@@ -262,11 +262,6 @@ pub fn student_t_sf(t: f64, df: f64) -> f64 {
     }
 }
 
-/// Cumulative distribution function of Student's t with `df` degrees of freedom, `P(T <= t)`.
-pub fn student_t_cdf(t: f64, df: f64) -> f64 {
-    student_t_sf(-t, df)
-}
-
 /// Quantile of Student's t with `df > 0` degrees of freedom: the `t` with `P(T <= t) = p`,
 /// found by bisection on the tail probability to about 1e-14 relative. NaN unless
 /// `0 < p < 1` and `df > 0`.

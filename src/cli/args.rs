@@ -179,17 +179,7 @@ pub fn threads_count(text: &str) -> Result<usize, String> {
 /// minutes and then fails on its first write.
 pub fn check_out_dir(path: &Path, flag: &str) -> Result<(), super::Failure> {
     let refuse = |why: String| super::usage(anyhow!("{flag} {}: {why}", path.display()));
-    let Some(existing) = path
-        .ancestors()
-        .map(|a| {
-            if a.as_os_str().is_empty() {
-                Path::new(".")
-            } else {
-                a
-            }
-        })
-        .find(|a| std::fs::metadata(a).is_ok())
-    else {
+    let Some(existing) = crate::sizing::nearest_existing(path) else {
         return Err(refuse("no part of this path exists".into()));
     };
     let metadata = std::fs::metadata(existing).map_err(|e| refuse(e.to_string()))?;

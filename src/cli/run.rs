@@ -136,7 +136,9 @@ fn warnings(args: &RunArgs, schedule: &Schedule, params: &[Params], spec: &Spec)
     let changes_human = schedule.changes.iter().any(|c| {
         matches!(
             c.event,
-            schedule::Event::Interaction(_) | schedule::Event::Profile(_)
+            schedule::Event::Human(
+                schedule::HumanChange::Interaction(_) | schedule::HumanChange::Profile(_)
+            )
         )
     });
     if let Some((_, budget)) = args.params.given.iter().find(|(p, _)| p.name == "budget")

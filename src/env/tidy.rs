@@ -6,8 +6,6 @@
 
 use std::collections::{HashMap, VecDeque};
 
-use serde::{Deserialize, Serialize};
-
 use super::{HumanTables, NO_NUISANCE, NO_TAKEOVER, Spec, StateId};
 
 /// Number of cubes (red, green, blue).
@@ -23,8 +21,7 @@ const COLOURS: [&str; N_CUBES] = ["R", "G", "B"];
 /// permutation of `rgb` (`brg` puts the red cube in the blue box, the green cube in the red box,
 /// the blue cube in the green box). State ids do not depend on it; the goal, the human's relevant
 /// actions, errors and takeover puts do.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
-#[serde(into = "String", try_from = "String")]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub struct Boxes(pub [u8; N_CUBES]);
 
 impl Boxes {
@@ -80,19 +77,6 @@ impl std::fmt::Display for Boxes {
             f.write_str(["r", "g", "b"][b as usize])?;
         }
         Ok(())
-    }
-}
-
-impl From<Boxes> for String {
-    fn from(b: Boxes) -> String {
-        b.to_string()
-    }
-}
-
-impl TryFrom<String> for Boxes {
-    type Error = String;
-    fn try_from(text: String) -> Result<Boxes, String> {
-        Boxes::parse(&text)
     }
 }
 
@@ -158,11 +142,6 @@ impl TidyState {
     /// The cube in the hand, if any.
     pub fn held(&self) -> Option<usize> {
         self.places.iter().position(|&p| p == Place::Hand)
-    }
-
-    /// Whether this is the rewarded state of the task.
-    pub fn is_goal(&self, variant: Variant) -> bool {
-        self.is_goal_with(variant, Boxes::RGB)
     }
 
     /// Whether this is the rewarded state of the task under the box assignment `boxes` (task 1).
@@ -247,12 +226,8 @@ impl TidyState {
         }
     }
 
-    /// The human's put when the robot holds a cube (SPEC 5, takeover).
-    pub fn takeover_action(&self, variant: Variant) -> Option<usize> {
-        self.takeover_action_with(variant, Boxes::RGB)
-    }
-
-    /// [`takeover_action`](TidyState::takeover_action) under the box assignment `boxes`.
+    /// The human's put when the robot holds a cube (SPEC 5, takeover), under the box
+    /// assignment `boxes`.
     pub fn takeover_action_with(&self, variant: Variant, boxes: Boxes) -> Option<usize> {
         let cube = self.held()?;
         Some(match variant {

@@ -324,26 +324,15 @@ impl Model<'_> {
     ///
     /// Sweeps the known states in ascending id and, in each, the tried actions in ascending id:
     /// Q(s,a) = sum_s' T(s,a,s') (R(s,a) + gamma * max_b Q(s',b)), outcomes whose last arrival
-    /// was terminal contributing no future value. Stops when a sweep's summed |dQ| is below `epsilon`, or after `max_sweeps`.
-    pub fn value_iteration(
-        &mut self,
-        q: &mut [f64],
-        gamma: f64,
-        epsilon: f64,
-        max_sweeps: u32,
-    ) -> ViReport {
-        self.forget_row_maxima();
-        self.value_iteration_cached(q, gamma, epsilon, max_sweeps)
-    }
-
-    /// [`value_iteration`](Model::value_iteration) that trusts what the previous calls left (the
-    /// row maxima in `best`, the `dirty` pairs): the engine's path, where only value iteration
-    /// ever writes the MB's Q table.
+    /// was terminal contributing no future value. Stops when a sweep's summed |dQ| is below
+    /// `epsilon`, or after `max_sweeps`.
     ///
-    /// Every entry of `best` must be NaN (unknown) or the maximum of its row of `q`, and every
-    /// pair whose value could differ from its entry in `q` must be dirty; [`Model::learn`] and
-    /// each call keep it so. Whoever changes `q` otherwise must call
-    /// [`forget_row_maxima`](Model::forget_row_maxima) (or use `value_iteration`).
+    /// Only the dirty pairs are recomputed, trusting what the previous calls left (the row
+    /// maxima in `best`, the `dirty` pairs): the engine's path, where only value iteration ever
+    /// writes the MB's Q table. Every entry of `best` must be NaN (unknown) or the maximum of
+    /// its row of `q`, and every pair whose value could differ from its entry in `q` must be
+    /// dirty; [`Model::learn`] and each call keep it so. Whoever changes `q` otherwise must call
+    /// [`forget_row_maxima`](Model::forget_row_maxima) first.
     pub fn value_iteration_cached(
         &mut self,
         q: &mut [f64],
@@ -706,7 +695,7 @@ mod tests {
         let mut q = vec![0.0; 3];
         // One sweep (max_sweeps 1): state 0 first: 0.5 * (0 + 0.9 * Q1 = 0) + 0.5 * (0 + 0) = 0;
         // then state 1: 1 * (1 + 0) = 1. ops: (2 + 1 terms) * (1 + 1) = 6.
-        let report = m.value_iteration(&mut q, 0.9, 1e-9, 1);
+        let report = m.value_iteration_cached(&mut q, 0.9, 1e-9, 1);
         assert_eq!(q, vec![0.0, 1.0, 0.0]);
         assert_eq!(
             report,
@@ -717,7 +706,7 @@ mod tests {
             }
         );
         // Second sweep: Q0 = 0.5 * 0.9 * 1 = 0.45, then a sweep with no change ends it.
-        let report = m.value_iteration(&mut q, 0.9, 1e-9, 100);
+        let report = m.value_iteration_cached(&mut q, 0.9, 1e-9, 100);
         assert!((q[0] - 0.45).abs() < 1e-15);
         assert_eq!(report.sweeps, 2);
         assert!(!report.capped);
@@ -883,10 +872,12 @@ mod tests {
         owned
             .view()
             .value_iteration_cached(&mut q, 0.95, 1e-9, 1000);
-        // Change Q behind the cache's back, then use the safe call.
+        // Change Q behind the cache's back, then forget the cache.
         q.iter_mut().for_each(|v| *v = 0.25);
         let mut q_ref = q.clone();
-        let inc = owned.view().value_iteration(&mut q, 0.95, 1e-9, 1000);
+        let mut m = owned.view();
+        m.forget_row_maxima();
+        let inc = m.value_iteration_cached(&mut q, 0.95, 1e-9, 1000);
         let reference = value_iteration_reference(&owned, &spec, &mut q_ref, 0.95, 1e-9, 1000);
         assert_eq!(inc, reference);
         assert_eq!(q, q_ref);

@@ -40,7 +40,7 @@ use mbmf::params::{
     CongratulationEffect, Controller, CostModel, HumanParams, Interaction, Params, RewardSource,
     Selection,
 };
-use mbmf::schedule::{Change, Event, Schedule};
+use mbmf::schedule::{Change, Event, HumanChange, Schedule};
 use rand_xoshiro::Xoshiro256PlusPlus;
 
 /// Divisor of the EC costs when both are 0 (SPEC 4: "a tiny constant"; the costs divided are
@@ -352,11 +352,11 @@ impl NaiveRun {
                     spec.human.clone(),
                 );
             }
-            Event::Interaction(i) => self.human.interaction = i,
-            Event::Budget(n) => self.budget_left = n,
-            Event::Forget(p) => self.human.forget_prob = p,
-            Event::Zeta(z) => self.human.zeta = z,
-            Event::Profile(p) => {
+            Event::Human(HumanChange::Interaction(i)) => self.human.interaction = i,
+            Event::Human(HumanChange::Budget(n)) => self.budget_left = n,
+            Event::Human(HumanChange::Forget(p)) => self.human.forget_prob = p,
+            Event::Human(HumanChange::Zeta(z)) => self.human.zeta = z,
+            Event::Human(HumanChange::Profile(p)) => {
                 if let Some(h) = p.human(self.params.controller) {
                     self.human = h;
                     self.budget_left = h.budget;
@@ -365,7 +365,7 @@ impl NaiveRun {
                     self.reward_source = r;
                 }
             }
-            Event::RewardSource(r) => self.reward_source = r,
+            Event::Human(HumanChange::RewardSource(r)) => self.reward_source = r,
         }
     }
 
