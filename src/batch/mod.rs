@@ -125,17 +125,21 @@ impl Cursor {
     }
 }
 
-/// Flags, per state of an `mf` run without a human, of what a decision there may take from the
-/// previous one instead of computing it again (bit for bit the same).
+/// Flags, per state of a run without a human, of what a decision there may take from the
+/// previous one instead of computing it again (bit for bit the same). Without a human the
+/// softmax of an expert depends only on its Q row (the bonus term is 0, the temperature fixed).
 pub struct Settled;
 
 impl Settled {
-    /// The kept softmax is that of the state's Q row as it is now: no learning has changed the
-    /// row since (without a human, the bonus term is 0 and the temperature fixed).
+    /// The MF Q row has not changed since its softmax was last folded into the averaged
+    /// distribution (for an `mf` run, which keeps it, that softmax is in `p_mf`).
     pub const SOFTMAX: u8 = 1;
-    /// Folding that softmax into the averaged distribution last left the distribution as it
-    /// was, so folding it in again would too.
+    /// That fold left the MF averaged distribution as it was, so folding again would too.
     pub const AVERAGE: u8 = 2;
+    /// [`SOFTMAX`](Settled::SOFTMAX) for the MB expert (value iteration changed no value).
+    pub const MB_SOFTMAX: u8 = 4;
+    /// [`AVERAGE`](Settled::AVERAGE) for the MB expert.
+    pub const MB_AVERAGE: u8 = 8;
 }
 
 /// Number of checkpoint rows of a run.
@@ -209,8 +213,7 @@ pub struct RunView<'a> {
     pub p_mf: &'a mut [f64],
     /// For an `mf` run without a human: the maximum of each state's MF Q row.
     pub max_mf: &'a mut [f64],
-    /// For an `mf` run without a human: which of `p_mf` and the averaged distribution still
-    /// hold in each state ([`Settled`] flags).
+    /// For a run without a human: what still holds in each state ([`Settled`] flags).
     pub settled: &'a mut [u8],
     /// MF per-state inference cost average.
     pub cost_mf: &'a mut [f64],
@@ -381,7 +384,7 @@ impl Batch {
             entropy_mb: Array2::from_elem((runs, mb_states), f64::NAN),
             p_mf: Array3::zeros((runs, kept_states, n_a)),
             max_mf,
-            settled: Array2::zeros((runs, kept_states)),
+            settled: Array2::zeros((runs, n_s)),
             cost_mf: Array2::zeros((runs, n_s)),
             cost_mb: Array2::zeros((runs, n_s)),
             visited: Array2::from_elem((runs, n_s), false),

@@ -269,7 +269,11 @@ fn act<const KIND: u8, const HUMAN: bool, const NA: usize, const BABBLING: bool>
             }
         } else {
             let future = mf::future(run.q_mf, n_a, next, terminal);
+            let before = run.q_mf[sa];
             mf::learn(run.q_mf, n_a, s, a, learned, future, alpha, gamma);
+            if !HUMAN && run.q_mf[sa].to_bits() != before.to_bits() {
+                run.settled[s] &= !(Settled::SOFTMAX | Settled::AVERAGE);
+            }
         }
     }
     if controller.runs_mb() {
@@ -394,6 +398,11 @@ fn decide<const KIND: u8, const HUMAN: bool, const NA: usize, const BABBLING: bo
         if report.capped {
             run.stats.vi_capped += 1;
         }
+        if !HUMAN && report.changed {
+            for flags in run.settled.iter_mut() {
+                *flags &= !(Settled::MB_SOFTMAX | Settled::MB_AVERAGE);
+            }
+        }
     }
 
     // 5. Decision: each expert the controller runs computes its (biased) softmax and folds it in.
@@ -426,15 +435,51 @@ fn decide<const KIND: u8, const HUMAN: bool, const NA: usize, const BABBLING: bo
         };
         let (p_mf, p_mb) = run.scratch.split_at_mut(n_a);
         let g = &run.bonus[row.clone()];
+        let (tau, alpha) = (params.tau, params.filter_alpha);
+        // Without a human, flags say which folds would change nothing.
+        let mut none = 0;
+        let settled = if HUMAN {
+            &mut none
+        } else {
+            &mut run.settled[s]
+        };
         if controller.runs_mf() {
-            softmax_biased(&run.q_mf[row.clone()], g, bonus, params.tau, p_mf);
-            if ema_into(&mut run.pavg_mf[row.clone()], p_mf, params.filter_alpha) {
+            let fold = Fold {
+                softmax: Settled::SOFTMAX,
+                average: Settled::AVERAGE,
+                drawn: !choice.use_mb,
+            };
+            let q = &run.q_mf[row.clone()];
+            if fold.run(
+                q,
+                g,
+                bonus,
+                tau,
+                p_mf,
+                &mut run.pavg_mf[row.clone()],
+                alpha,
+                settled,
+            ) {
                 run.entropy_mf[s] = f64::NAN;
             }
         }
         if controller.runs_mb() {
-            softmax_biased(&run.q_mb[row.clone()], g, bonus, params.tau, p_mb);
-            if ema_into(&mut run.pavg_mb[row], p_mb, params.filter_alpha) {
+            let fold = Fold {
+                softmax: Settled::MB_SOFTMAX,
+                average: Settled::MB_AVERAGE,
+                drawn: choice.use_mb,
+            };
+            let q = &run.q_mb[row.clone()];
+            if fold.run(
+                q,
+                g,
+                bonus,
+                tau,
+                p_mb,
+                &mut run.pavg_mb[row.clone()],
+                alpha,
+                settled,
+            ) {
                 run.entropy_mb[s] = f64::NAN;
             }
         }
@@ -455,6 +500,47 @@ fn decide<const KIND: u8, const HUMAN: bool, const NA: usize, const BABBLING: bo
         run.cursor.window_decisions += 1;
     }
     a
+}
+
+/// One expert's step 5 in a state: its softmax, and the fold of that softmax into its averaged
+/// distribution, each skipped where the state's [`Settled`] flags (`softmax` and `average`, this
+/// expert's bits) say it would give what it gave last time.
+struct Fold {
+    softmax: u8,
+    average: u8,
+    /// The action is drawn from this expert's softmax, so it is needed whatever the flags say.
+    drawn: bool,
+}
+
+impl Fold {
+    /// Writes the softmax of `q` (with bonus `bonus * g`, temperature `tau`) into `p` when it is
+    /// needed, folds it into `avg` unless that is known to change nothing, and updates `settled`.
+    /// Returns whether `avg` changed.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn run(
+        &self,
+        q: &[f64],
+        g: &[u8],
+        bonus: f64,
+        tau: f64,
+        p: &mut [f64],
+        avg: &mut [f64],
+        alpha: f64,
+        settled: &mut u8,
+    ) -> bool {
+        let both = self.softmax | self.average;
+        let unchanged = *settled & both == both;
+        if self.drawn || !unchanged {
+            softmax_biased(q, g, bonus, tau, p);
+        }
+        if unchanged {
+            return false;
+        }
+        let changed = ema_into(avg, p, alpha);
+        *settled = (*settled & !both) | if changed { self.softmax } else { both };
+        changed
+    }
 }
 
 /// The entropy in bits of `row`, an averaged distribution, from `kept` unless that is NaN (not

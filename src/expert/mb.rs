@@ -228,6 +228,8 @@ pub struct ViReport {
     pub sweeps: u32,
     /// The call stopped at the sweep cap before converging.
     pub capped: bool,
+    /// The call changed a value of the Q table (bit for bit).
+    pub changed: bool,
 }
 
 impl Model<'_> {
@@ -385,6 +387,7 @@ impl Model<'_> {
                 if value.to_bits() != old.to_bits() {
                     let before = row_max(self.best, q, s, n_actions);
                     q[sa] = value;
+                    report.changed = true;
                     // The new maximum without rereading the row when the changed entry decides
                     // it: a larger value is the new maximum; an entry below the maximum left it
                     // in place. Otherwise (the maximum itself fell, ties, NaN) reread the row.
@@ -702,14 +705,18 @@ mod tests {
             ViReport {
                 ops: 6,
                 sweeps: 1,
-                capped: true
+                capped: true,
+                changed: true,
             }
         );
         // Second sweep: Q0 = 0.5 * 0.9 * 1 = 0.45, then a sweep with no change ends it.
         let report = m.value_iteration_cached(&mut q, 0.9, 1e-9, 100);
         assert!((q[0] - 0.45).abs() < 1e-15);
         assert_eq!(report.sweeps, 2);
-        assert!(!report.capped);
+        assert!(!report.capped && report.changed);
+        // Converged: a call changes nothing, and says so.
+        let report = m.value_iteration_cached(&mut q, 0.9, 1e-9, 100);
+        assert!(!report.changed);
     }
 
     /// Value iteration as SPEC 3.2 words it: every sweep recomputes every tried pair of every
@@ -760,6 +767,7 @@ mod tests {
                         report.ops += 1 + n_actions as u64;
                     }
                     delta += (value - q[sa]).abs();
+                    report.changed |= value.to_bits() != q[sa].to_bits();
                     q[sa] = value;
                 }
             }
