@@ -336,23 +336,6 @@ impl Batch {
         } else {
             (0, 0)
         };
-        let mut q_mf: Array3<f64> = Array3::zeros((runs, mf_states, n_a));
-        let mut q_mb: Array3<f64> = Array3::zeros((runs, mb_states, n_a));
-        for (r, config) in configs.iter().enumerate() {
-            // Zeroed memory is left untouched when q_init is +0: its pages are then first
-            // written by the run that uses them.
-            if config.params.q_init.to_bits() != 0 {
-                q_mf.index_axis_mut(ndarray::Axis(0), r)
-                    .fill(config.params.q_init);
-                q_mb.index_axis_mut(ndarray::Axis(0), r)
-                    .fill(config.params.q_init);
-            }
-        }
-        let mut max_mf: Array2<f64> = Array2::zeros((runs, kept_states));
-        for (mut maxima, config) in max_mf.outer_iter_mut().zip(&configs) {
-            maxima.fill(crate::expert::mf::row_max(&vec![config.params.q_init; n_a]));
-        }
-        let uniform_p = 1.0 / n_a as f64;
         let mut rngs: Vec<Xoshiro256PlusPlus> = configs
             .iter()
             .map(|c| run_rng(c.seed, c.run_index))
@@ -374,16 +357,16 @@ impl Batch {
         for config in &configs {
             series_start.push(series_start.last().unwrap() + checkpoint_count(&config.params));
         }
-        Ok(Batch {
+        let mut batch = Batch {
             window_cap,
-            q_mf,
-            q_mb,
-            pavg_mf: Array3::from_elem((runs, mf_states, n_a), uniform_p),
-            pavg_mb: Array3::from_elem((runs, mb_states, n_a), uniform_p),
-            entropy_mf: Array2::from_elem((runs, mf_states), f64::NAN),
-            entropy_mb: Array2::from_elem((runs, mb_states), f64::NAN),
+            q_mf: Array3::zeros((runs, mf_states, n_a)),
+            q_mb: Array3::zeros((runs, mb_states, n_a)),
+            pavg_mf: Array3::zeros((runs, mf_states, n_a)),
+            pavg_mb: Array3::zeros((runs, mb_states, n_a)),
+            entropy_mf: Array2::zeros((runs, mf_states)),
+            entropy_mb: Array2::zeros((runs, mb_states)),
             p_mf: Array3::zeros((runs, kept_states, n_a)),
-            max_mf,
+            max_mf: Array2::zeros((runs, kept_states)),
             settled: Array2::zeros((runs, n_s)),
             cost_mf: Array2::zeros((runs, n_s)),
             cost_mb: Array2::zeros((runs, n_s)),
@@ -396,7 +379,7 @@ impl Batch {
             outcome_reward: Array2::zeros((runs, n_outcomes)),
             outcome_terminal: Array2::from_elem((runs, n_outcomes), false),
             known: Array2::from_elem((runs, mb_states), false),
-            vi_best: Array2::from_elem((runs, mb_states), f64::NAN),
+            vi_best: Array2::zeros((runs, mb_states)),
             vi_dirty: Array2::zeros((runs, if mb_states > 0 { obs.dirty_words() } else { 0 })),
             vi_terms: vec![0; runs],
             obs,
@@ -410,7 +393,21 @@ impl Batch {
             plans: Arc::new(plans),
             run_plan,
             spec,
-        })
+        };
+        batch.start_runs();
+        Ok(batch)
+    }
+
+    /// Writes every run's initial tables (SPEC 3.3: Q = q_init, uniform averaged distributions,
+    /// zero costs, empty model), in parallel. The tables are allocated zeroed and untouched, so
+    /// these first writes map their pages: spread over the threads, and never first mapped by a
+    /// read (the shared zero page), whose copy on the first write costs a TLB shootdown on every
+    /// other thread of the process.
+    fn start_runs(&mut self) {
+        let n_actions = self.spec.n_actions;
+        self.views()
+            .into_par_iter()
+            .for_each(|(params, mut run)| run.start(params, n_actions));
     }
 
     /// The canonical text of run `r`'s schedule ("" without changes, SPEC 10).
@@ -696,6 +693,31 @@ impl Batch {
             views.push((&config.params, view));
         }
         views
+    }
+}
+
+impl RunView<'_> {
+    /// Writes the run's initial tables (see [`Batch::start_runs`]).
+    fn start(&mut self, params: &Params, n_actions: usize) {
+        let uniform_p = 1.0 / n_actions as f64;
+        self.q_mf.fill(params.q_init);
+        self.q_mb.fill(params.q_init);
+        self.pavg_mf.fill(uniform_p);
+        self.pavg_mb.fill(uniform_p);
+        self.entropy_mf.fill(f64::NAN);
+        self.entropy_mb.fill(f64::NAN);
+        self.p_mf.fill(0.0);
+        // The maximum of a row of q_init, folded as learning folds it (kept by `mf` runs only,
+        // whose MF table is there).
+        let row = self.q_mf.get(..n_actions).unwrap_or(&[]);
+        self.max_mf.fill(crate::expert::mf::row_max(row));
+        self.settled.fill(0);
+        self.cost_mf.fill(0.0);
+        self.cost_mb.fill(0.0);
+        self.visited.fill(false);
+        self.bonus.fill(0);
+        self.model.clear();
+        self.scratch.fill(0.0);
     }
 }
 

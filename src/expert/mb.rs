@@ -233,6 +233,20 @@ pub struct ViReport {
 }
 
 impl Model<'_> {
+    /// Empties the model: nothing observed, every row maximum unknown, no pair to recompute.
+    pub fn clear(&mut self) {
+        self.ring.fill(0);
+        self.ring_len.fill(0);
+        self.ring_pos.fill(0);
+        self.count.fill(0);
+        self.reward.fill(0.0);
+        self.terminal.fill(false);
+        self.known.fill(false);
+        self.best.fill(f64::NAN);
+        self.dirty.fill(0);
+        *self.active_terms = 0;
+    }
+
     /// Forgets what the incremental value iteration knows about the Q table (row maxima, which
     /// pairs are up to date): needed after changing the Q table given to
     /// [`value_iteration_cached`](Model::value_iteration_cached) by other means.
