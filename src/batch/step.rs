@@ -407,26 +407,29 @@ fn decide<const KIND: u8, const HUMAN: bool, const NA: usize, const BABBLING: bo
 
     // 5. Decision: each expert the controller runs computes its (biased) softmax and folds it in.
     let a = if KIND == MF && !HUMAN {
-        let settled = &mut run.settled[s];
-        let p_mf = &mut run.p_mf[row.clone()];
-        if *settled & Settled::SOFTMAX == 0 {
-            softmax_biased(
-                &run.q_mf[row.clone()],
-                &run.bonus[row.clone()],
-                0.0,
-                params.tau,
-                p_mf,
-            );
-            *settled = Settled::SOFTMAX;
+        // An `mf` run keeps its softmax of each state (`p_mf`) as long as the row is unchanged.
+        let fold = Fold {
+            softmax: Settled::SOFTMAX,
+            average: Settled::AVERAGE,
+            drawn: true,
+            kept: true,
+        };
+        let (q, g) = (&run.q_mf[row.clone()], &run.bonus[row.clone()]);
+        let p = &mut run.p_mf[row.clone()];
+        let (tau, alpha) = (params.tau, params.filter_alpha);
+        if fold.run(
+            q,
+            g,
+            0.0,
+            tau,
+            p,
+            &mut run.pavg_mf[row.clone()],
+            alpha,
+            &mut run.settled[s],
+        ) {
+            run.entropy_mf[s] = f64::NAN;
         }
-        if *settled & Settled::AVERAGE == 0 {
-            if ema_into(&mut run.pavg_mf[row.clone()], p_mf, params.filter_alpha) {
-                run.entropy_mf[s] = f64::NAN;
-            } else {
-                *settled |= Settled::AVERAGE;
-            }
-        }
-        draw(p_mf, uniform(run.rng))
+        draw(p, uniform(run.rng))
     } else {
         let bonus = if HUMAN {
             human::bonus_weight(&run.cursor.human, params.congratulation_effect)
@@ -448,6 +451,7 @@ fn decide<const KIND: u8, const HUMAN: bool, const NA: usize, const BABBLING: bo
                 softmax: Settled::SOFTMAX,
                 average: Settled::AVERAGE,
                 drawn: !choice.use_mb,
+                kept: false,
             };
             let q = &run.q_mf[row.clone()];
             if fold.run(
@@ -468,6 +472,7 @@ fn decide<const KIND: u8, const HUMAN: bool, const NA: usize, const BABBLING: bo
                 softmax: Settled::MB_SOFTMAX,
                 average: Settled::MB_AVERAGE,
                 drawn: choice.use_mb,
+                kept: false,
             };
             let q = &run.q_mb[row.clone()];
             if fold.run(
@@ -510,6 +515,9 @@ struct Fold {
     average: u8,
     /// The action is drawn from this expert's softmax, so it is needed whatever the flags say.
     drawn: bool,
+    /// The softmax is written where it stays between decisions (an `mf` run's `p_mf`), so while
+    /// the row is unchanged it is there already.
+    kept: bool,
 }
 
 impl Fold {
@@ -531,7 +539,8 @@ impl Fold {
     ) -> bool {
         let both = self.softmax | self.average;
         let unchanged = *settled & both == both;
-        if self.drawn || !unchanged {
+        let fresh = self.kept && *settled & self.softmax != 0;
+        if !fresh && (self.drawn || !unchanged) {
             softmax_biased(q, g, bonus, tau, p);
         }
         if unchanged {
