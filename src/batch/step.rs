@@ -630,3 +630,80 @@ fn record_checkpoint(run: &mut RunView<'_>, t_exp: u32) {
     cursor.window_p_mb = 0.0;
     cursor.window_decisions = 0;
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const MF_BITS: u8 = Settled::SOFTMAX | Settled::AVERAGE;
+
+    fn fold(drawn: bool, kept: bool) -> Fold {
+        Fold {
+            softmax: Settled::SOFTMAX,
+            average: Settled::AVERAGE,
+            drawn,
+            kept,
+        }
+    }
+
+    /// Folds `p`'s softmax into `avg` until the average stops moving; returns the folds made.
+    fn settle(f: &Fold, q: &[f64], p: &mut [f64], avg: &mut [f64], settled: &mut u8) -> usize {
+        let g = [0u8; 3];
+        for n in 1..200 {
+            f.run(q, &g, 0.0, 0.5, p, avg, 0.6, settled);
+            if *settled & MF_BITS == MF_BITS {
+                return n;
+            }
+        }
+        panic!("the average never settled");
+    }
+
+    #[test]
+    fn a_settled_fold_is_skipped_and_its_softmax_only_computed_when_drawn() {
+        let q = [0.0, 1.0, 0.5];
+        let g = [0u8; 3];
+        let (mut p, mut avg, mut settled) = ([0.0; 3], [1.0 / 3.0; 3], 0u8);
+        // The first fold moves the average: only SOFTMAX is set, and it says so.
+        assert!(fold(false, false).run(&q, &g, 0.0, 0.5, &mut p, &mut avg, 0.6, &mut settled));
+        assert_eq!(settled, Settled::SOFTMAX);
+        let mut expected = [0.0; 3];
+        softmax_biased(&q, &g, 0.0, 0.5, &mut expected);
+        assert_eq!(p, expected);
+        // Folding the same softmax converges (the moving average reaches a fixed point).
+        assert!(settle(&fold(false, false), &q, &mut p, &mut avg, &mut settled) > 1);
+        let settled_avg = avg;
+        // Settled and not drawn: neither the softmax nor the average is touched.
+        p = [f64::NAN; 3];
+        assert!(!fold(false, false).run(&q, &g, 0.0, 0.5, &mut p, &mut avg, 0.6, &mut settled));
+        assert!(p.iter().all(|x| x.is_nan()));
+        assert_eq!(avg, settled_avg);
+        // Drawn from: the softmax is computed again (bit for bit the same), the fold still not.
+        assert!(!fold(true, false).run(&q, &g, 0.0, 0.5, &mut p, &mut avg, 0.6, &mut settled));
+        assert_eq!(p, expected);
+        assert_eq!(avg, settled_avg);
+        // Kept where it stays (an mf run's p_mf): not even the drawn softmax is recomputed.
+        p = [f64::NAN; 3];
+        assert!(!fold(true, true).run(&q, &g, 0.0, 0.5, &mut p, &mut avg, 0.6, &mut settled));
+        assert!(p.iter().all(|x| x.is_nan()));
+        // A changed row (learning clears the flags) is computed and folded again.
+        settled &= !MF_BITS;
+        let q2 = [2.0, 1.0, 0.5];
+        assert!(fold(false, false).run(&q2, &g, 0.0, 0.5, &mut p, &mut avg, 0.6, &mut settled));
+        softmax_biased(&q2, &g, 0.0, 0.5, &mut expected);
+        assert_eq!(p, expected);
+        assert_eq!(settled & MF_BITS, Settled::SOFTMAX);
+    }
+
+    #[test]
+    fn the_other_expert_s_flags_are_left_alone() {
+        let q = [0.3, 0.1];
+        let g = [0u8; 2];
+        let (mut p, mut avg) = ([0.0; 2], [0.5; 2]);
+        let mut settled = Settled::MB_SOFTMAX | Settled::MB_AVERAGE;
+        fold(false, false).run(&q, &g, 0.0, 1.0, &mut p, &mut avg, 0.6, &mut settled);
+        assert_eq!(
+            settled,
+            Settled::MB_SOFTMAX | Settled::MB_AVERAGE | Settled::SOFTMAX
+        );
+    }
+}
