@@ -1,4 +1,4 @@
-//! Bad command lines and bad environment files (issue 7, part 1), through the built binary: each
+//! Bad command lines and bad environment files, through the built binary: each
 //! gives its exit code (2 for usage errors, 1 for runtime failures), a message naming the flag,
 //! key or file position, the bad value and what is accepted, and never a panic or a backtrace.
 

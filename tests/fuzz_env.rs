@@ -1,4 +1,4 @@
-//! Fuzzing the `json:` environment loader (issue 7, part 2): the JSON model, `keyStates.txt` and
+//! Fuzzing the `json:` environment loader: the JSON model, `keyStates.txt` and
 //! `spaces.txt`, from random bytes and from structured mutations of the real fixture
 //! `tests/data/tidy1`. Whatever the input, loading returns a well-formed spec or an error with a
 //! message; it never panics, and sizes are bounded so it never hangs.

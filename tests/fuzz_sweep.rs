@@ -1,4 +1,4 @@
-//! Fuzzing the sweep file parser (issue 7, part 2): random bytes, files generated from the
+//! Fuzzing the sweep file parser: random bytes, files generated from the
 //! format's own vocabulary, and edits of the repository's `sweeps/*.toml`. Whatever the text,
 //! `Sweep::parse` returns a sweep whose every configuration resolves to valid parameters, or an
 //! error with a `file:line` message; it never panics, and sizes are bounded so it never hangs.

@@ -1,4 +1,4 @@
-//! The simulated human (SPEC 5, issue 3): congratulation, takeover, punishment, forgetting,
+//! The simulated human (SPEC 5): congratulation, takeover, punishment, forgetting,
 //! budgets and the babbling protocol, checked step by step on the real step kernel.
 
 use std::sync::Arc;

@@ -1,4 +1,4 @@
-//! Determinism as a property (issue 7, part 5): for small random configurations (any
+//! Determinism as a property: for small random configurations (any
 //! controller, selection, human and parameters, several runs with different parameters in one
 //! batch), the results are the same bit for bit on 1 or 2 threads and in any batch size. A run's
 //! result depends only on its parameters, the master seed and its run index (SPEC 7).

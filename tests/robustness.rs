@@ -1,4 +1,4 @@
-//! Numerical robustness (issue 7, part 3): extreme but accepted inputs give finite outputs, and
+//! Numerical robustness: extreme but accepted inputs give finite outputs, and
 //! inputs that would overflow are refused with a reason.
 //!
 //! Every test runs the built binary (`mbmf run`) and reads both Parquet files back: every float

@@ -1,4 +1,4 @@
-//! Users' tools read a sweep dataset (issue 4 item 3): polars `scan_parquet("DIR/runs/*.parquet")`
+//! Users' tools read a sweep dataset: polars `scan_parquet("DIR/runs/*.parquet")`
 //! and pandas `read_parquet("DIR/runs")`, with the real packages installed in `.venv` by
 //! `scripts/python-env.sh`. Skipped with a message when the venv is missing, except under CI.
 

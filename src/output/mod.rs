@@ -160,7 +160,7 @@ fn ratio(num: f64, den: u64) -> Option<f64> {
     (den > 0).then(|| num / den as f64)
 }
 
-/// One row per run of the batch: parameters, then the results of SPEC 8 and issue 3.
+/// One row per run of the batch: parameters, then SPEC 8's results, the human's counts included.
 pub fn runs_batch(batch: &Batch) -> Result<RecordBatch, OutputError> {
     let mut cols = Columns::default();
     let task = batch.spec().name.clone();

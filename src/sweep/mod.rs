@@ -1,4 +1,4 @@
-//! Sweeps (issue 4): a TOML file describing a grid of `mbmf run` parameters x seeds, expanded
+//! Sweeps: a TOML file describing a grid of `mbmf run` parameters x seeds, expanded
 //! into configurations, run in batches and streamed to a Parquet dataset that survives kills,
 //! resumes, and splits into shards for job arrays. `sweeps/README.md` documents the file format.
 //!
