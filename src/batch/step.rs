@@ -328,9 +328,10 @@ fn encounter<'r>(
 ///
 /// What a decision computes from rows that have not changed since the last decision in the
 /// state is taken from then, bit for bit the same: the entropies of the averaged distributions
-/// (kept per state until a moving average changes the row) and, for an `mf` run without a
-/// human, the softmax and its moving average (see [`Settled`]). Once Q-learning has converged
-/// in a state, neither changes: about 19 decisions in 20 of a 3,000-step tidy1 run.
+/// (kept per state until a moving average changes the row) and, without a human, each expert's
+/// softmax and moving average while its Q row is unchanged (see [`Settled`] and [`Fold`]; an
+/// `mf` run keeps the softmax itself). Once Q-learning has converged in a state, none of them
+/// changes: about 19 decisions in 20 of a 3,000-step tidy1 `mf` run.
 #[inline(always)]
 fn decide<const KIND: u8, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
     spec: &Spec,
