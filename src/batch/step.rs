@@ -257,22 +257,28 @@ fn act<const KIND: u8, const HUMAN: bool, const NA: usize, const BABBLING: bool>
     // goal at this time (SPEC 10): both experts learn that from the transition itself.
     run.cursor.pending_reset = terminal;
     if controller.runs_mf() {
-        let (alpha, gamma) = (params.alpha_mf, params.gamma_mf);
-        if KIND == MF && !HUMAN {
-            // An `mf` run keeps each row's maximum and softmax until a value of the row changes.
-            let future = if terminal { 0.0 } else { run.max_mf[next] };
-            let before = run.q_mf[sa];
-            mf::learn(run.q_mf, n_a, s, a, learned, future, alpha, gamma);
-            if run.q_mf[sa].to_bits() != before.to_bits() {
+        // An `mf` run without a human keeps each Q row's maximum; other runs read the row.
+        let future = match (KIND == MF && !HUMAN, terminal) {
+            (_, true) => 0.0,
+            (true, false) => run.max_mf[next],
+            (false, false) => mf::future(run.q_mf, n_a, next, false),
+        };
+        let before = run.q_mf[sa];
+        mf::learn(
+            run.q_mf,
+            n_a,
+            s,
+            a,
+            learned,
+            future,
+            params.alpha_mf,
+            params.gamma_mf,
+        );
+        // A new value in the row makes what was kept from it stale.
+        if !HUMAN && run.q_mf[sa].to_bits() != before.to_bits() {
+            run.settled[s] &= !(Settled::SOFTMAX | Settled::AVERAGE);
+            if KIND == MF {
                 run.max_mf[s] = mf::row_max(&run.q_mf[s * n_a..(s + 1) * n_a]);
-                run.settled[s] = 0;
-            }
-        } else {
-            let future = mf::future(run.q_mf, n_a, next, terminal);
-            let before = run.q_mf[sa];
-            mf::learn(run.q_mf, n_a, s, a, learned, future, alpha, gamma);
-            if !HUMAN && run.q_mf[sa].to_bits() != before.to_bits() {
-                run.settled[s] &= !(Settled::SOFTMAX | Settled::AVERAGE);
             }
         }
     }
@@ -407,90 +413,72 @@ fn decide<const KIND: u8, const HUMAN: bool, const NA: usize, const BABBLING: bo
     }
 
     // 5. Decision: each expert the controller runs computes its (biased) softmax and folds it in.
-    let a = if KIND == MF && !HUMAN {
-        // An `mf` run keeps its softmax of each state (`p_mf`) as long as the row is unchanged.
+    let bonus = if HUMAN {
+        human::bonus_weight(&run.cursor.human, params.congratulation_effect)
+    } else {
+        0.0
+    };
+    // An `mf` run without a human keeps its softmax of each state in `p_mf`; other runs compute
+    // theirs into scratch space.
+    let keeps_softmax = KIND == MF && !HUMAN;
+    let (scratch_mf, p_mb) = run.scratch.split_at_mut(n_a);
+    let p_mf = if keeps_softmax {
+        &mut run.p_mf[row.clone()]
+    } else {
+        scratch_mf
+    };
+    // Without a human, flags say which folds would change nothing.
+    let mut none = 0;
+    let settled = if HUMAN {
+        &mut none
+    } else {
+        &mut run.settled[s]
+    };
+    let g = &run.bonus[row.clone()];
+    let (tau, alpha) = (params.tau, params.filter_alpha);
+    if controller.runs_mf() {
         let fold = Fold {
             softmax: Settled::SOFTMAX,
             average: Settled::AVERAGE,
-            drawn: true,
-            kept: true,
+            drawn: !choice.use_mb,
+            kept: keeps_softmax,
         };
-        let (q, g) = (&run.q_mf[row.clone()], &run.bonus[row.clone()]);
-        let p = &mut run.p_mf[row.clone()];
-        let (tau, alpha) = (params.tau, params.filter_alpha);
-        if fold.run(
+        let avg = &mut run.pavg_mf[row.clone()];
+        let q = &run.q_mf[row.clone()];
+        fold.run(
             q,
             g,
-            0.0,
+            bonus,
             tau,
-            p,
-            &mut run.pavg_mf[row.clone()],
+            p_mf,
+            avg,
             alpha,
-            &mut run.settled[s],
-        ) {
-            run.entropy_mf[s] = f64::NAN;
-        }
-        draw(p, uniform(run.rng))
-    } else {
-        let bonus = if HUMAN {
-            human::bonus_weight(&run.cursor.human, params.congratulation_effect)
-        } else {
-            0.0
+            settled,
+            &mut run.entropy_mf[s],
+        );
+    }
+    if controller.runs_mb() {
+        let fold = Fold {
+            softmax: Settled::MB_SOFTMAX,
+            average: Settled::MB_AVERAGE,
+            drawn: choice.use_mb,
+            kept: false,
         };
-        let (p_mf, p_mb) = run.scratch.split_at_mut(n_a);
-        let g = &run.bonus[row.clone()];
-        let (tau, alpha) = (params.tau, params.filter_alpha);
-        // Without a human, flags say which folds would change nothing.
-        let mut none = 0;
-        let settled = if HUMAN {
-            &mut none
-        } else {
-            &mut run.settled[s]
-        };
-        if controller.runs_mf() {
-            let fold = Fold {
-                softmax: Settled::SOFTMAX,
-                average: Settled::AVERAGE,
-                drawn: !choice.use_mb,
-                kept: false,
-            };
-            let q = &run.q_mf[row.clone()];
-            if fold.run(
-                q,
-                g,
-                bonus,
-                tau,
-                p_mf,
-                &mut run.pavg_mf[row.clone()],
-                alpha,
-                settled,
-            ) {
-                run.entropy_mf[s] = f64::NAN;
-            }
-        }
-        if controller.runs_mb() {
-            let fold = Fold {
-                softmax: Settled::MB_SOFTMAX,
-                average: Settled::MB_AVERAGE,
-                drawn: choice.use_mb,
-                kept: false,
-            };
-            let q = &run.q_mb[row.clone()];
-            if fold.run(
-                q,
-                g,
-                bonus,
-                tau,
-                p_mb,
-                &mut run.pavg_mb[row.clone()],
-                alpha,
-                settled,
-            ) {
-                run.entropy_mb[s] = f64::NAN;
-            }
-        }
-        draw(if choice.use_mb { p_mb } else { p_mf }, uniform(run.rng))
-    };
+        let avg = &mut run.pavg_mb[row.clone()];
+        let q = &run.q_mb[row.clone()];
+        fold.run(
+            q,
+            g,
+            bonus,
+            tau,
+            p_mb,
+            avg,
+            alpha,
+            settled,
+            &mut run.entropy_mb[s],
+        );
+    }
+    let a = draw(if choice.use_mb { p_mb } else { p_mf }, uniform(run.rng));
 
     if !babbling {
         let stats = &mut *run.stats;
@@ -523,8 +511,8 @@ struct Fold {
 
 impl Fold {
     /// Writes the softmax of `q` (with bonus `bonus * g`, temperature `tau`) into `p` when it is
-    /// needed, folds it into `avg` unless that is known to change nothing, and updates `settled`.
-    /// Returns whether `avg` changed.
+    /// needed, folds it into `avg` unless that is known to change nothing, and updates `settled`;
+    /// a changed `avg` makes its kept `entropy` unknown (NaN). Returns whether `avg` changed.
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     fn run(
@@ -537,6 +525,7 @@ impl Fold {
         avg: &mut [f64],
         alpha: f64,
         settled: &mut u8,
+        entropy: &mut f64,
     ) -> bool {
         let both = self.softmax | self.average;
         let unchanged = *settled & both == both;
@@ -549,6 +538,9 @@ impl Fold {
         }
         let changed = ema_into(avg, p, alpha);
         *settled = (*settled & !both) | if changed { self.softmax } else { both };
+        if changed {
+            *entropy = f64::NAN;
+        }
         changed
     }
 }
@@ -649,9 +641,9 @@ mod tests {
 
     /// Folds `p`'s softmax into `avg` until the average stops moving; returns the folds made.
     fn settle(f: &Fold, q: &[f64], p: &mut [f64], avg: &mut [f64], settled: &mut u8) -> usize {
-        let g = [0u8; 3];
+        let (g, mut entropy) = ([0u8; 3], f64::NAN);
         for n in 1..200 {
-            f.run(q, &g, 0.0, 0.5, p, avg, 0.6, settled);
+            f.run(q, &g, 0.0, 0.5, p, avg, 0.6, settled, &mut entropy);
             if *settled & MF_BITS == MF_BITS {
                 return n;
             }
@@ -664,32 +656,87 @@ mod tests {
         let q = [0.0, 1.0, 0.5];
         let g = [0u8; 3];
         let (mut p, mut avg, mut settled) = ([0.0; 3], [1.0 / 3.0; 3], 0u8);
+        // A kept entropy of the average; folding that moves the average makes it unknown.
+        let mut h = 1.0;
         // The first fold moves the average: only SOFTMAX is set, and it says so.
-        assert!(fold(false, false).run(&q, &g, 0.0, 0.5, &mut p, &mut avg, 0.6, &mut settled));
+        assert!(fold(false, false).run(
+            &q,
+            &g,
+            0.0,
+            0.5,
+            &mut p,
+            &mut avg,
+            0.6,
+            &mut settled,
+            &mut h
+        ));
         assert_eq!(settled, Settled::SOFTMAX);
+        assert!(h.is_nan());
         let mut expected = [0.0; 3];
         softmax_biased(&q, &g, 0.0, 0.5, &mut expected);
         assert_eq!(p, expected);
         // Folding the same softmax converges (the moving average reaches a fixed point).
         assert!(settle(&fold(false, false), &q, &mut p, &mut avg, &mut settled) > 1);
         let settled_avg = avg;
-        // Settled and not drawn: neither the softmax nor the average is touched.
+        h = 2.0;
+        // Settled and not drawn: neither the softmax nor the average (nor its entropy) is touched.
         p = [f64::NAN; 3];
-        assert!(!fold(false, false).run(&q, &g, 0.0, 0.5, &mut p, &mut avg, 0.6, &mut settled));
+        assert!(!fold(false, false).run(
+            &q,
+            &g,
+            0.0,
+            0.5,
+            &mut p,
+            &mut avg,
+            0.6,
+            &mut settled,
+            &mut h
+        ));
         assert!(p.iter().all(|x| x.is_nan()));
         assert_eq!(avg, settled_avg);
+        assert_eq!(h, 2.0);
         // Drawn from: the softmax is computed again (bit for bit the same), the fold still not.
-        assert!(!fold(true, false).run(&q, &g, 0.0, 0.5, &mut p, &mut avg, 0.6, &mut settled));
+        assert!(!fold(true, false).run(
+            &q,
+            &g,
+            0.0,
+            0.5,
+            &mut p,
+            &mut avg,
+            0.6,
+            &mut settled,
+            &mut h
+        ));
         assert_eq!(p, expected);
         assert_eq!(avg, settled_avg);
         // Kept where it stays (an mf run's p_mf): not even the drawn softmax is recomputed.
         p = [f64::NAN; 3];
-        assert!(!fold(true, true).run(&q, &g, 0.0, 0.5, &mut p, &mut avg, 0.6, &mut settled));
+        assert!(!fold(true, true).run(
+            &q,
+            &g,
+            0.0,
+            0.5,
+            &mut p,
+            &mut avg,
+            0.6,
+            &mut settled,
+            &mut h
+        ));
         assert!(p.iter().all(|x| x.is_nan()));
         // A changed row (learning clears the flags) is computed and folded again.
         settled &= !MF_BITS;
         let q2 = [2.0, 1.0, 0.5];
-        assert!(fold(false, false).run(&q2, &g, 0.0, 0.5, &mut p, &mut avg, 0.6, &mut settled));
+        assert!(fold(false, false).run(
+            &q2,
+            &g,
+            0.0,
+            0.5,
+            &mut p,
+            &mut avg,
+            0.6,
+            &mut settled,
+            &mut h
+        ));
         softmax_biased(&q2, &g, 0.0, 0.5, &mut expected);
         assert_eq!(p, expected);
         assert_eq!(settled & MF_BITS, Settled::SOFTMAX);
@@ -699,9 +746,19 @@ mod tests {
     fn the_other_expert_s_flags_are_left_alone() {
         let q = [0.3, 0.1];
         let g = [0u8; 2];
-        let (mut p, mut avg) = ([0.0; 2], [0.5; 2]);
+        let (mut p, mut avg, mut h) = ([0.0; 2], [0.5; 2], 0.0);
         let mut settled = Settled::MB_SOFTMAX | Settled::MB_AVERAGE;
-        fold(false, false).run(&q, &g, 0.0, 1.0, &mut p, &mut avg, 0.6, &mut settled);
+        fold(false, false).run(
+            &q,
+            &g,
+            0.0,
+            1.0,
+            &mut p,
+            &mut avg,
+            0.6,
+            &mut settled,
+            &mut h,
+        );
         assert_eq!(
             settled,
             Settled::MB_SOFTMAX | Settled::MB_AVERAGE | Settled::SOFTMAX
