@@ -311,26 +311,15 @@ impl Batch {
         // An expert no run of the batch runs gets no tables at all: for a batch of `mf` runs
         // that is half of the memory the batch would otherwise fill, and the page faults and
         // stores to fill it, which cost more than a tenth of such a batch's whole time.
-        let mf_states = if configs.iter().any(|c| c.params.controller.runs_mf()) {
-            n_s
-        } else {
-            0
+        let states_if_any = |runs_it: fn(Controller) -> bool| {
+            let any = configs.iter().any(|c| runs_it(c.params.controller));
+            if any { n_s } else { 0 }
         };
-        let mb_states = if configs.iter().any(|c| c.params.controller.runs_mb()) {
-            n_s
-        } else {
-            0
-        };
+        let mf_states = states_if_any(Controller::runs_mf);
+        let mb_states = states_if_any(Controller::runs_mb);
         // Only `mf` runs keep their softmax between decisions (two-expert runs would outgrow
         // 64 KiB of state per tidy run with it).
-        let kept_states = if configs
-            .iter()
-            .any(|c| c.params.controller == Controller::Mf)
-        {
-            n_s
-        } else {
-            0
-        };
+        let kept_states = states_if_any(|c| c == Controller::Mf);
         let (mb_pairs, n_outcomes) = if mb_states > 0 {
             (n_s * n_a, obs.len())
         } else {
