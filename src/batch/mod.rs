@@ -699,7 +699,7 @@ impl RunView<'_> {
         // The maximum of a row of q_init, folded as learning folds it (kept by `mf` runs only,
         // whose MF table is there).
         let row = self.q_mf.get(..n_actions).unwrap_or(&[]);
-        self.max_mf.fill(crate::expert::mf::row_max(row));
+        self.max_mf.fill(crate::expert::max_of(row));
         self.settled.fill(0);
         self.cost_mf.fill(0.0);
         self.cost_mb.fill(0.0);

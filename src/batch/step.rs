@@ -14,7 +14,7 @@ use std::time::Instant;
 
 use super::{Checkpoint, RunView, Settled, initial_state, uniform};
 use crate::env::Spec;
-use crate::expert::{draw, ema, ema_into, entropy_bits, mf, softmax_biased};
+use crate::expert::{draw, ema, ema_into, entropy_bits, max_of, mf, softmax_biased};
 use crate::human::{self, Encounter};
 use crate::meta;
 use crate::params::{
@@ -278,7 +278,7 @@ fn act<const KIND: u8, const HUMAN: bool, const NA: usize, const BABBLING: bool>
         if !HUMAN && run.q_mf[sa].to_bits() != before.to_bits() {
             run.settled[s] &= !(Settled::SOFTMAX | Settled::AVERAGE);
             if KIND == MF {
-                run.max_mf[s] = mf::row_max(&run.q_mf[s * n_a..(s + 1) * n_a]);
+                run.max_mf[s] = max_of(&run.q_mf[s * n_a..(s + 1) * n_a]);
             }
         }
     }

@@ -20,6 +20,7 @@
 
 use std::sync::Arc;
 
+use super::max_of;
 use crate::env::{Spec, StateId};
 
 /// The outcomes a run's MB expert can observe, per state-action pair, in CSR form: the outcomes
@@ -577,13 +578,6 @@ fn row_max(best: &mut [f64], q: &[f64], s: usize, n_actions: usize) -> f64 {
     } else {
         b
     }
-}
-
-/// Maximum of a row; NaN entries are skipped and an empty or all-NaN row gives -inf, so the
-/// result is never NaN.
-#[inline(always)]
-fn max_of(row: &[f64]) -> f64 {
-    row.iter().copied().fold(f64::NEG_INFINITY, f64::max)
 }
 
 /// Owned storage for one run's model, for tests and the naive reference.

@@ -1,5 +1,7 @@
 //! Model-free expert: tabular Q-learning (SPEC 3.1, Eq. 4).
 
+use super::max_of;
+
 /// Q(s,a) += alpha * (r + gamma * future - Q(s,a)), where `future` is [`future`]'s value of the
 /// arrival.
 ///
@@ -26,15 +28,8 @@ pub fn future(q: &[f64], n_actions: usize, next: usize, next_terminal: bool) -> 
     if next_terminal {
         0.0
     } else {
-        row_max(&q[next * n_actions..(next + 1) * n_actions])
+        max_of(&q[next * n_actions..(next + 1) * n_actions])
     }
-}
-
-/// The largest value of a Q row (NaN values ignored), folded in action order, so that a maximum
-/// kept between steps is bit for bit the one computed afresh.
-#[inline]
-pub fn row_max(row: &[f64]) -> f64 {
-    row.iter().copied().fold(f64::NEG_INFINITY, f64::max)
 }
 
 /// Cost in `ops` of one MF inference: the |A| values of the row it reads (SPEC 6).

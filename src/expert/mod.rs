@@ -46,6 +46,14 @@ pub fn softmax_biased(q: &[f64], g: &[u8], bonus: f64, tau: f64, out: &mut [f64]
     }
 }
 
+/// Maximum of a Q row, folded in action order; NaN entries are skipped and an empty or all-NaN
+/// row gives -inf, so the result is never NaN. Both experts' future terms use it, and a maximum
+/// kept between steps is bit for bit the one computed afresh.
+#[inline(always)]
+pub fn max_of(row: &[f64]) -> f64 {
+    row.iter().copied().fold(f64::NEG_INFINITY, f64::max)
+}
+
 /// Base-2 entropy of a distribution, with 0 log 0 = 0 (SPEC 3.3, Eq. 5).
 #[inline]
 pub fn entropy_bits(p: &[f64]) -> f64 {
