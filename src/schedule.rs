@@ -37,6 +37,11 @@ pub enum Event {
     Human(HumanChange),
 }
 
+/// The value of `values` whose `name` is `value`.
+fn named<T: Copy>(values: &[T], name: impl Fn(T) -> &'static str, value: &str) -> Option<T> {
+    values.iter().copied().find(|&v| name(v) == value)
+}
+
 /// One event at experiment step `step` (1-based, babbling not counted).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Change {
@@ -169,11 +174,8 @@ impl Change {
                 Event::Delete(pairs)
             }
             "interaction" => Event::Human(HumanChange::Interaction(
-                Interaction::value_variants()
-                    .iter()
-                    .copied()
-                    .find(|i| i.name() == value)
-                    .ok_or_else(|| {
+                named(Interaction::value_variants(), Interaction::name, value).ok_or_else(
+                    || {
                         fail(
                             text,
                             format!(
@@ -181,7 +183,8 @@ impl Change {
                                  takeover, punishment, nuisance"
                             ),
                         )
-                    })?,
+                    },
+                )?,
             )),
             "budget" => Event::Human(HumanChange::Budget(value.parse().map_err(|_| {
                 fail(
@@ -204,32 +207,27 @@ impl Change {
                 Event::Human(HumanChange::Zeta(z))
             }
             "profile" => Event::Human(HumanChange::Profile(
-                Profile::PRESETS
-                    .into_iter()
-                    .find(|p| p.name() == value)
-                    .ok_or_else(|| {
-                        let names: Vec<&str> = Profile::PRESETS.iter().map(|p| p.name()).collect();
-                        fail(
-                            text,
-                            format!(
-                                "profile '{value}' is not one of {} (sweep-file profiles \
+                named(&Profile::PRESETS, Profile::name, value).ok_or_else(|| {
+                    let names: Vec<&str> = Profile::PRESETS.iter().map(|p| p.name()).collect();
+                    fail(
+                        text,
+                        format!(
+                            "profile '{value}' is not one of {} (sweep-file profiles \
                                  cannot be events)",
-                                names.join(", ")
-                            ),
-                        )
-                    })?,
+                            names.join(", ")
+                        ),
+                    )
+                })?,
             )),
             "reward_source" => Event::Human(HumanChange::RewardSource(
-                RewardSource::value_variants()
-                    .iter()
-                    .copied()
-                    .find(|r| r.name() == value)
-                    .ok_or_else(|| {
+                named(RewardSource::value_variants(), RewardSource::name, value).ok_or_else(
+                    || {
                         fail(
                             text,
                             format!("reward_source '{value}' is not environment or human"),
                         )
-                    })?,
+                    },
+                )?,
             )),
             _ => {
                 let hint = crate::suggest::hint(&key, EVENT_KEYS.iter().copied());
