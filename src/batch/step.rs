@@ -629,138 +629,101 @@ mod tests {
     use super::*;
 
     const MF_BITS: u8 = Settled::SOFTMAX | Settled::AVERAGE;
+    const G: [u8; 3] = [0; 3];
 
-    fn fold(drawn: bool, kept: bool) -> Fold {
-        Fold {
-            softmax: Settled::SOFTMAX,
-            average: Settled::AVERAGE,
-            drawn,
-            kept,
+    /// One state's MF softmax buffer, averaged distribution, flags and kept entropy.
+    struct State {
+        p: [f64; 3],
+        avg: [f64; 3],
+        settled: u8,
+        entropy: f64,
+    }
+
+    impl State {
+        /// [`Fold::run`] of the MF expert on row `q` (temperature 0.5, alpha 0.6, no bonus).
+        fn fold(&mut self, q: &[f64; 3], drawn: bool, kept: bool) -> bool {
+            let fold = Fold {
+                softmax: Settled::SOFTMAX,
+                average: Settled::AVERAGE,
+                drawn,
+                kept,
+            };
+            let (p, avg) = (&mut self.p, &mut self.avg);
+            fold.run(
+                q,
+                &G,
+                0.0,
+                0.5,
+                p,
+                avg,
+                0.6,
+                &mut self.settled,
+                &mut self.entropy,
+            )
         }
     }
 
-    /// Folds `p`'s softmax into `avg` until the average stops moving; returns the folds made.
-    fn settle(f: &Fold, q: &[f64], p: &mut [f64], avg: &mut [f64], settled: &mut u8) -> usize {
-        let (g, mut entropy) = ([0u8; 3], f64::NAN);
-        for n in 1..200 {
-            f.run(q, &g, 0.0, 0.5, p, avg, 0.6, settled, &mut entropy);
-            if *settled & MF_BITS == MF_BITS {
-                return n;
-            }
-        }
-        panic!("the average never settled");
+    fn softmax(q: &[f64; 3]) -> [f64; 3] {
+        let mut p = [0.0; 3];
+        softmax_biased(q, &G, 0.0, 0.5, &mut p);
+        p
     }
 
     #[test]
     fn a_settled_fold_is_skipped_and_its_softmax_only_computed_when_drawn() {
         let q = [0.0, 1.0, 0.5];
-        let g = [0u8; 3];
-        let (mut p, mut avg, mut settled) = ([0.0; 3], [1.0 / 3.0; 3], 0u8);
         // A kept entropy of the average; folding that moves the average makes it unknown.
-        let mut h = 1.0;
+        let mut st = State {
+            p: [0.0; 3],
+            avg: [1.0 / 3.0; 3],
+            settled: 0,
+            entropy: 1.0,
+        };
         // The first fold moves the average: only SOFTMAX is set, and it says so.
-        assert!(fold(false, false).run(
-            &q,
-            &g,
-            0.0,
-            0.5,
-            &mut p,
-            &mut avg,
-            0.6,
-            &mut settled,
-            &mut h
-        ));
-        assert_eq!(settled, Settled::SOFTMAX);
-        assert!(h.is_nan());
-        let mut expected = [0.0; 3];
-        softmax_biased(&q, &g, 0.0, 0.5, &mut expected);
-        assert_eq!(p, expected);
+        assert!(st.fold(&q, false, false));
+        assert_eq!(st.settled, Settled::SOFTMAX);
+        assert!(st.entropy.is_nan());
+        assert_eq!(st.p, softmax(&q));
         // Folding the same softmax converges (the moving average reaches a fixed point).
-        assert!(settle(&fold(false, false), &q, &mut p, &mut avg, &mut settled) > 1);
-        let settled_avg = avg;
-        h = 2.0;
+        let folds = (1..200).find(|_| {
+            st.fold(&q, false, false);
+            st.settled & MF_BITS == MF_BITS
+        });
+        assert!(folds.expect("the average settles") > 1);
+        let settled_avg = st.avg;
+        st.entropy = 2.0;
         // Settled and not drawn: neither the softmax nor the average (nor its entropy) is touched.
-        p = [f64::NAN; 3];
-        assert!(!fold(false, false).run(
-            &q,
-            &g,
-            0.0,
-            0.5,
-            &mut p,
-            &mut avg,
-            0.6,
-            &mut settled,
-            &mut h
-        ));
-        assert!(p.iter().all(|x| x.is_nan()));
-        assert_eq!(avg, settled_avg);
-        assert_eq!(h, 2.0);
+        st.p = [f64::NAN; 3];
+        assert!(!st.fold(&q, false, false));
+        assert!(st.p.iter().all(|x| x.is_nan()));
+        assert_eq!((st.avg, st.entropy), (settled_avg, 2.0));
         // Drawn from: the softmax is computed again (bit for bit the same), the fold still not.
-        assert!(!fold(true, false).run(
-            &q,
-            &g,
-            0.0,
-            0.5,
-            &mut p,
-            &mut avg,
-            0.6,
-            &mut settled,
-            &mut h
-        ));
-        assert_eq!(p, expected);
-        assert_eq!(avg, settled_avg);
+        assert!(!st.fold(&q, true, false));
+        assert_eq!(st.p, softmax(&q));
+        assert_eq!(st.avg, settled_avg);
         // Kept where it stays (an mf run's p_mf): not even the drawn softmax is recomputed.
-        p = [f64::NAN; 3];
-        assert!(!fold(true, true).run(
-            &q,
-            &g,
-            0.0,
-            0.5,
-            &mut p,
-            &mut avg,
-            0.6,
-            &mut settled,
-            &mut h
-        ));
-        assert!(p.iter().all(|x| x.is_nan()));
+        st.p = [f64::NAN; 3];
+        assert!(!st.fold(&q, true, true));
+        assert!(st.p.iter().all(|x| x.is_nan()));
         // A changed row (learning clears the flags) is computed and folded again.
-        settled &= !MF_BITS;
+        st.settled &= !MF_BITS;
         let q2 = [2.0, 1.0, 0.5];
-        assert!(fold(false, false).run(
-            &q2,
-            &g,
-            0.0,
-            0.5,
-            &mut p,
-            &mut avg,
-            0.6,
-            &mut settled,
-            &mut h
-        ));
-        softmax_biased(&q2, &g, 0.0, 0.5, &mut expected);
-        assert_eq!(p, expected);
-        assert_eq!(settled & MF_BITS, Settled::SOFTMAX);
+        assert!(st.fold(&q2, false, false));
+        assert_eq!(st.p, softmax(&q2));
+        assert_eq!(st.settled & MF_BITS, Settled::SOFTMAX);
     }
 
     #[test]
     fn the_other_expert_s_flags_are_left_alone() {
-        let q = [0.3, 0.1];
-        let g = [0u8; 2];
-        let (mut p, mut avg, mut h) = ([0.0; 2], [0.5; 2], 0.0);
-        let mut settled = Settled::MB_SOFTMAX | Settled::MB_AVERAGE;
-        fold(false, false).run(
-            &q,
-            &g,
-            0.0,
-            1.0,
-            &mut p,
-            &mut avg,
-            0.6,
-            &mut settled,
-            &mut h,
-        );
+        let mut st = State {
+            p: [0.0; 3],
+            avg: [0.5, 0.25, 0.25],
+            settled: Settled::MB_SOFTMAX | Settled::MB_AVERAGE,
+            entropy: 0.0,
+        };
+        st.fold(&[0.3, 0.1, 0.0], false, false);
         assert_eq!(
-            settled,
+            st.settled,
             Settled::MB_SOFTMAX | Settled::MB_AVERAGE | Settled::SOFTMAX
         );
     }
