@@ -9,12 +9,60 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
 
-use anyhow::{Context, anyhow};
-
 use crate::batch::{Batch, RunConfig};
 use crate::env::{self, Spec};
-use crate::params::{Controller, Params};
-use crate::plot::{LineChart, Series, line_chart};
+use crate::params::{ConfigError, Controller, Params};
+use crate::plot::{LineChart, PlotError, Series, line_chart};
+
+/// Why a measurement could not be made or written. None is a usage error: the CLI checks its
+/// flags before measuring.
+#[derive(Debug, thiserror::Error)]
+pub enum BenchError {
+    /// The thread pool of a measurement could not start.
+    #[error("cannot start {threads} worker threads: {cause}")]
+    Threads {
+        /// Threads asked for.
+        threads: usize,
+        /// What rayon said.
+        cause: rayon::ThreadPoolBuildError,
+    },
+    /// A benchmark's task could not be built.
+    #[error(transparent)]
+    Env(#[from] env::EnvError),
+    /// A growth size out of range.
+    #[error(transparent)]
+    Grid(#[from] env::grid::GridError),
+    /// A benchmark's batch refused its parameters.
+    #[error(transparent)]
+    Config(#[from] ConfigError),
+    /// The output folder could not be created.
+    #[error("cannot create {}", path.display())]
+    CreateDir {
+        /// The folder.
+        path: PathBuf,
+        /// Why.
+        #[source]
+        cause: std::io::Error,
+    },
+    /// A file could not be written.
+    #[error("cannot write {}", path.display())]
+    Write {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        #[source]
+        cause: std::io::Error,
+    },
+    /// A chart could not be drawn.
+    #[error(transparent)]
+    Plot(#[from] PlotError),
+}
+
+impl crate::error::Usage for BenchError {
+    fn is_usage(&self) -> bool {
+        false
+    }
+}
 
 /// Master seed of every input of `mbmf bench`.
 pub const SEED: u64 = 20_200_831;
@@ -31,7 +79,7 @@ pub fn steady_rate(
     threads: &[usize],
     window: u64,
     repeats: usize,
-) -> anyhow::Result<Vec<f64>> {
+) -> Result<Vec<f64>, BenchError> {
     let total = u64::from(params.babbling) + u64::from(params.steps);
     let mut batch = Batch::new(Arc::clone(spec), configs(params, runs))?;
     let all = pool(std::thread::available_parallelism().map_or(1, |n| n.get()))?;
@@ -40,7 +88,7 @@ pub fn steady_rate(
     let pools = threads
         .iter()
         .map(|&t| pool(t))
-        .collect::<anyhow::Result<Vec<_>>>()?;
+        .collect::<Result<Vec<_>, _>>()?;
     let mut rates = vec![Vec::new(); threads.len()];
     for _ in 0..repeats.max(1) {
         for (pool, rates) in pools.iter().zip(&mut rates) {
@@ -78,11 +126,11 @@ fn window_rate(template: &Batch, pool: &rayon::ThreadPool, window: u64) -> f64 {
     (after - before) as f64 / seconds.max(1e-9)
 }
 
-fn pool(threads: usize) -> anyhow::Result<rayon::ThreadPool> {
+fn pool(threads: usize) -> Result<rayon::ThreadPool, BenchError> {
     rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
-        .map_err(|e| anyhow!("cannot start {threads} worker threads: {e}"))
+        .map_err(|cause| BenchError::Threads { threads, cause })
 }
 
 /// Memory of one run of a batch.
@@ -96,7 +144,7 @@ pub struct Memory {
 }
 
 /// Memory per run of a batch of `runs` paper-default `ec` runs on `spec`.
-pub fn memory_per_instance(spec: &Arc<Spec>, runs: usize) -> anyhow::Result<Memory> {
+pub fn memory_per_instance(spec: &Arc<Spec>, runs: usize) -> Result<Memory, BenchError> {
     let params = Params {
         controller: Controller::Ec,
         steps: crate::params::default_steps(&spec.name),
@@ -180,11 +228,11 @@ pub fn growth(
     sizes: &[usize],
     controllers: &[Controller],
     mut on_point: impl FnMut(&GrowthPoint),
-) -> anyhow::Result<Vec<GrowthPoint>> {
+) -> Result<Vec<GrowthPoint>, BenchError> {
     let one = pool(1)?;
     let mut points = Vec::new();
     for &n in sizes {
-        let spec = Arc::new(env::grid::build(n).map_err(|e| anyhow!(e))?);
+        let spec = Arc::new(env::grid::build(n)?);
         for &controller in controllers {
             let params = Params {
                 controller,
@@ -222,8 +270,11 @@ pub fn growth(
 
 /// Writes `growth.csv` and the log-log charts `growth_time` and `growth_memory` into `out`;
 /// returns the files written, the CSV first.
-pub fn write_growth(points: &[GrowthPoint], out: &Path) -> anyhow::Result<Vec<PathBuf>> {
-    std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
+pub fn write_growth(points: &[GrowthPoint], out: &Path) -> Result<Vec<PathBuf>, BenchError> {
+    std::fs::create_dir_all(out).map_err(|cause| BenchError::CreateDir {
+        path: out.to_path_buf(),
+        cause,
+    })?;
     let mut csv = String::from(
         "states,controller,us_per_step,steps_per_s,bytes_per_run,reward,known_states,sweeps_per_vi\n",
     );
@@ -241,8 +292,10 @@ pub fn write_growth(points: &[GrowthPoint], out: &Path) -> anyhow::Result<Vec<Pa
         ));
     }
     let csv_path = out.join("growth.csv");
-    std::fs::write(&csv_path, csv)
-        .with_context(|| format!("cannot write {}", csv_path.display()))?;
+    std::fs::write(&csv_path, csv).map_err(|cause| BenchError::Write {
+        path: csv_path.clone(),
+        cause,
+    })?;
     let series_of = |y: &dyn Fn(&GrowthPoint) -> f64| -> Vec<Series> {
         GROWTH_CONTROLLERS
             .iter()

@@ -3,9 +3,19 @@
 
 use std::io::Write as _;
 
+mod cli;
+
+// The command line is a front end of the library like any other; its modules name the
+// library's as `crate::...`, as they did when they lived inside it.
+#[allow(unused_imports)]
+use mbmf::{
+    analysis, atomic, batch, bench, env, error, expert, human, meta, output, params, pipeline,
+    plot, reproduce, rng, run, run_stats, schedule, sizing, suggest, sweep,
+};
+
 fn main() {
     install_panic_hook();
-    if let Err(failure) = mbmf::cli::main_with_args(std::env::args_os()) {
+    if let Err(failure) = cli::main_with_args(std::env::args_os()) {
         // writeln, not the panicking macro: a closed stderr must not turn an error into a panic.
         let _ = writeln!(std::io::stderr(), "error: {:#}", failure.error);
         std::process::exit(failure.code);

@@ -65,6 +65,9 @@ pub enum ConfigError {
 macro_rules! names {
     ($($ty:ident $(($kind:expr))? { $($variant:ident => $name:literal),* $(,)? })*) => { $(
         impl $ty {
+            /// Every value, in declaration order.
+            pub const VALUES: &[$ty] = &[$($ty::$variant),*];
+
             /// The name used on the command line and in outputs.
             pub fn name(self) -> &'static str {
                 match self { $($ty::$variant => $name),* }
@@ -82,6 +85,7 @@ macro_rules! names {
                     _ => None,
                 }
             }
+            #[cfg(feature = "cli")]
             fn possible_values() -> Vec<clap::builder::PossibleValue> {
                 use clap::ValueEnum;
                 Self::value_variants().iter().filter_map(Self::to_possible_value).collect()
@@ -117,7 +121,8 @@ names! {
 }
 
 /// Which experts the meta-controller may choose from, and how (SPEC 4).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
 pub enum Controller {
     /// Model-free expert alone.
     Mf,
@@ -158,7 +163,8 @@ impl Controller {
 }
 
 /// How the meta-controller turns expert values into a choice (SPEC 4).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
 pub enum Selection {
     /// Softmax over the two values with `tau`, then a draw (the paper).
     Softmax,
@@ -167,7 +173,8 @@ pub enum Selection {
 }
 
 /// How inference cost is measured (SPEC 6).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
 pub enum CostModel {
     /// Q values read per inference: deterministic.
     Ops,
@@ -176,7 +183,8 @@ pub enum CostModel {
 }
 
 /// Kind of help the simulated human gives (SPEC 5).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
 pub enum Interaction {
     /// No human.
     None,
@@ -192,7 +200,8 @@ pub enum Interaction {
 }
 
 /// Who brings the goal's reward (SPEC 11.1).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
 pub enum RewardSource {
     /// The environment, at every arrival in the goal (SPEC 2).
     #[default]
@@ -203,7 +212,8 @@ pub enum RewardSource {
 }
 
 /// How a congratulation acts (SPEC 11.3).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
 pub enum CongratulationEffect {
     /// On the choice: zeta * G(s, a) in the softmax (Eq. 8, the paper).
     Bias,
@@ -213,7 +223,8 @@ pub enum CongratulationEffect {
 }
 
 /// Named presets of the human's behaviour (SPEC 5), sweepable as a whole.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
 pub enum Profile {
     /// No interaction.
     None,
@@ -233,7 +244,7 @@ pub enum Profile {
     /// A nuisance (SPEC 11.2) with a budget of 300.
     Nuisance,
     /// Whatever the individual flags say.
-    #[value(skip)]
+    #[cfg_attr(feature = "cli", value(skip))]
     Custom,
 }
 

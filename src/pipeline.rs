@@ -10,7 +10,6 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 
-use anyhow::{Result, anyhow};
 use arrow::array::{ArrayRef, Int64Array, RecordBatch, StringArray};
 use arrow::datatypes::{Field, Schema};
 
@@ -371,13 +370,23 @@ fn system_memory() -> Option<(u64, u64)> {
     Some((field("MemAvailable:")?, field("MemTotal:")?))
 }
 
+/// One run needs more memory than this machine has: the message names the flag that would
+/// shrink it. A usage error: the same inputs can never run here.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{0}")]
+pub struct TooLarge(pub String);
+
 /// Memory a batch may use when the system does not say how much there is.
 const DEFAULT_BATCH_BYTES: u64 = 2 << 30;
 
 /// Runs to simulate at once: `requested`, lowered so that a batch fits in half of the memory
 /// available now. A run that alone needs more than the machine's memory is refused, naming the
 /// flag that would shrink it, instead of failing an allocation midway.
-pub fn plan_batch_size(spec: &Spec, configs: &[RunConfig], requested: usize) -> Result<usize> {
+pub fn plan_batch_size(
+    spec: &Spec,
+    configs: &[RunConfig],
+    requested: usize,
+) -> Result<usize, TooLarge> {
     let Some(largest) = configs
         .iter()
         .max_by_key(|c| bytes_per_run(spec, &c.params))
@@ -392,7 +401,7 @@ pub fn plan_batch_size(spec: &Spec, configs: &[RunConfig], requested: usize) -> 
     if per_run > installed {
         let parts = memory_parts(spec, &largest.params);
         let (_, fix) = parts.iter().max_by_key(|&&(b, _)| b).expect("three parts");
-        return Err(anyhow!(
+        return Err(TooLarge(format!(
             "one run needs about {} of memory, more than this machine's {}: {fix} \
              ({} states x {} actions, window-n {}, {} series rows per run)",
             gib(per_run),
@@ -401,7 +410,7 @@ pub fn plan_batch_size(spec: &Spec, configs: &[RunConfig], requested: usize) -> 
             spec.n_actions,
             largest.params.window_n,
             crate::batch::checkpoint_count(&largest.params)
-        ));
+        )));
     }
     let fit = usize::try_from(budget / per_run).unwrap_or(usize::MAX);
     Ok(requested.min(fit).max(1))

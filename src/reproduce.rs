@@ -15,13 +15,13 @@ use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use anyhow::{Context, Result};
-
+use crate::analysis::dataset::DatasetError;
 use crate::analysis::stats::{self, Alternative};
 use crate::batch::{Batch, Checkpoint, RunStats};
+use crate::output::OutputError;
 use crate::params::{Controller, Interaction, Profile, Selection, paper_budget};
 use crate::pipeline;
-use crate::plot;
+use crate::plot::{self, PlotError};
 use crate::sweep::store::RunSet;
 use crate::sweep::{RunError, Shard, Sweep, runner};
 
@@ -50,6 +50,56 @@ pub struct Options {
     pub runs: Option<u32>,
     /// Master seed.
     pub seed: u64,
+    /// The command recorded in the data files' provenance (`mbmf_command`).
+    pub command: String,
+}
+
+/// Why a reproduction failed. Its conditions are built in and its options checked by the
+/// caller, so none is a usage error.
+#[derive(Debug, thiserror::Error)]
+pub enum ReproduceError {
+    /// A folder could not be created.
+    #[error("cannot create output folder {}", path.display())]
+    CreateDir {
+        /// The folder.
+        path: PathBuf,
+        /// Why.
+        #[source]
+        cause: std::io::Error,
+    },
+    /// A file could not be written.
+    #[error("cannot write {}", path.display())]
+    Write {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        #[source]
+        cause: std::io::Error,
+    },
+    /// The conditions' sweep could not be built or its tasks loaded.
+    #[error(transparent)]
+    Sweep(#[from] crate::sweep::SweepError),
+    /// The simulation failed.
+    #[error(transparent)]
+    Run(#[from] RunError),
+    /// The data files could not be completed.
+    #[error(transparent)]
+    Output(#[from] OutputError),
+    /// The data just written could not be read back.
+    #[error(transparent)]
+    Dataset(#[from] DatasetError),
+    /// The minimal budgets could not be computed.
+    #[error(transparent)]
+    Analysis(#[from] crate::analysis::AnalysisError),
+    /// A figure could not be drawn.
+    #[error(transparent)]
+    Plot(#[from] PlotError),
+}
+
+impl crate::error::Usage for ReproduceError {
+    fn is_usage(&self) -> bool {
+        false
+    }
 }
 
 /// What a reproduction did.
@@ -313,7 +363,7 @@ pub fn reproduce(
     options: &Options,
     total: impl FnOnce(u64),
     progress: impl FnMut(u64),
-) -> Result<Summary> {
+) -> Result<Summary, ReproduceError> {
     let started = Instant::now();
     let scale = Scale::new(options);
     let outcomes = simulate_all(options, &scale, total, progress)?;
@@ -339,9 +389,9 @@ pub fn reproduce(
     })
 }
 
-fn write_atomic(path: &Path, text: &str) -> Result<()> {
+fn write_atomic(path: &Path, text: &str) -> Result<(), ReproduceError> {
     crate::atomic::write_atomic(path, text.as_bytes())
-        .map_err(|(p, e)| anyhow::Error::new(e).context(format!("cannot write {}", p.display())))
+        .map_err(|(path, cause)| ReproduceError::Write { path, cause })
 }
 
 /// Runs per batch of a reproduction.
@@ -354,15 +404,17 @@ fn simulate_all(
     scale: &Scale,
     total: impl FnOnce(u64),
     mut progress: impl FnMut(u64),
-) -> Result<Vec<Outcome>> {
+) -> Result<Vec<Outcome>, ReproduceError> {
     let conditions = conditions(scale);
     let text = sweep_text(&conditions, scale, args.seed, args.quick);
     let file = args.out.join("sweep.toml");
     let sweep = Sweep::parse(&file.display().to_string(), &args.out, &text)?;
     let specs = sweep.load_specs()?;
     let data = args.out.join("data");
-    std::fs::create_dir_all(&data)
-        .with_context(|| format!("cannot create output folder {}", data.display()))?;
+    std::fs::create_dir_all(&data).map_err(|cause| ReproduceError::CreateDir {
+        path: data.clone(),
+        cause,
+    })?;
     write_atomic(&file, &text)?;
     let seeds = u64::from(sweep.seeds);
     total(
@@ -370,7 +422,7 @@ fn simulate_all(
             .map(|c| seeds * pipeline::run_steps(&sweep.resolve(c).params))
             .sum(),
     );
-    let metadata = runner::metadata(&sweep, Shard::ALL);
+    let metadata = runner::metadata(&sweep, Shard::ALL, &args.command);
     let names = sweep.profile_names.clone();
     let mut job = pipeline::Job {
         schedules: &sweep.schedules,
@@ -406,7 +458,7 @@ fn simulate_all(
 
 /// Claim 6's data: the SPEC 9 minimal budget of every task-1 controller and interaction type
 /// (softmax MC), by `mbmf min-budget`'s own rule on the runs just written.
-fn min_budgets(data: &Path) -> Result<Vec<MinBudgetRow>> {
+fn min_budgets(data: &Path) -> Result<Vec<MinBudgetRow>, ReproduceError> {
     use crate::analysis::dataset::{Value, read_dataset};
     use crate::analysis::min_budget::{DEFAULT_ALPHA, min_budget};
     let table = read_dataset(data, "runs")?;
@@ -893,7 +945,7 @@ impl Report<'_> {
         s
     }
 
-    fn figures(&self) -> Result<Vec<(String, PathBuf)>> {
+    fn figures(&self) -> Result<Vec<(String, PathBuf)>, PlotError> {
         use Interaction::{Congratulation, None as NoHuman, Takeover};
         let dir = self.args.out.join("figures");
         let mut out = Vec::new();
@@ -1083,7 +1135,7 @@ fn lines(
     series: Vec<plot::Series>,
     log_y: bool,
     path: &Path,
-) -> Result<(String, Vec<PathBuf>)> {
+) -> Result<(String, Vec<PathBuf>), PlotError> {
     let chart = plot::LineChart {
         title,
         x_label: x_label.into(),

@@ -10,7 +10,6 @@
 use std::fmt;
 use std::sync::Arc;
 
-use clap::ValueEnum;
 use thiserror::Error;
 
 use crate::env::tidy::{self, Boxes};
@@ -174,17 +173,15 @@ impl Change {
                 Event::Delete(pairs)
             }
             "interaction" => Event::Human(HumanChange::Interaction(
-                named(Interaction::value_variants(), Interaction::name, value).ok_or_else(
-                    || {
-                        fail(
-                            text,
-                            format!(
-                                "interaction '{value}' is not one of none, congratulation, \
+                named(Interaction::VALUES, Interaction::name, value).ok_or_else(|| {
+                    fail(
+                        text,
+                        format!(
+                            "interaction '{value}' is not one of none, congratulation, \
                                  takeover, punishment, nuisance"
-                            ),
-                        )
-                    },
-                )?,
+                        ),
+                    )
+                })?,
             )),
             "budget" => Event::Human(HumanChange::Budget(value.parse().map_err(|_| {
                 fail(
@@ -220,14 +217,12 @@ impl Change {
                 })?,
             )),
             "reward_source" => Event::Human(HumanChange::RewardSource(
-                named(RewardSource::value_variants(), RewardSource::name, value).ok_or_else(
-                    || {
-                        fail(
-                            text,
-                            format!("reward_source '{value}' is not environment or human"),
-                        )
-                    },
-                )?,
+                named(RewardSource::VALUES, RewardSource::name, value).ok_or_else(|| {
+                    fail(
+                        text,
+                        format!("reward_source '{value}' is not environment or human"),
+                    )
+                })?,
             )),
             _ => {
                 let hint = crate::suggest::hint(&key, EVENT_KEYS.iter().copied());

@@ -201,25 +201,14 @@ pub fn check_time(estimate: &Estimate, shrink: &Shrink) -> Result<(), SizeError>
 
 /// Free bytes for an unprivileged writer on the file system of `path`, or of its nearest
 /// existing parent (the folder may not exist yet).
-// The statvfs field types differ between platforms (u32 on some), hence the conversions.
-#[allow(clippy::useless_conversion)]
 pub fn free_bytes(path: &Path) -> Option<u64> {
-    use std::os::unix::ffi::OsStrExt;
     let existing = nearest_existing(path)?;
-    let c = std::ffi::CString::new(existing.as_os_str().as_bytes()).ok()?;
-    let mut st = std::mem::MaybeUninit::<libc::statvfs>::uninit();
-    // SAFETY: `c` is a valid NUL-terminated path and `st` a properly sized out-parameter.
-    let rc = unsafe { libc::statvfs(c.as_ptr(), st.as_mut_ptr()) };
-    if rc != 0 {
-        return None;
-    }
-    // SAFETY: statvfs succeeded, so it filled `st`.
-    let st = unsafe { st.assume_init() };
+    let st = rustix::fs::statvfs(existing).ok()?;
     if st.f_blocks == 0 {
         // A pseudo file system (/proc, /sys) has no size: writing there fails on its own.
         return None;
     }
-    let free = u64::from(st.f_bavail).saturating_mul(u64::from(st.f_frsize));
+    let free = st.f_bavail.saturating_mul(st.f_frsize);
     Some(free)
 }
 

@@ -149,7 +149,13 @@ fn write_table(table: &Table, folder: &Path, name: &str) -> Result<PathBuf, Fail
         "pareto.parquet" => crate::output::provenance::PARETO_SCHEMA,
         _ => crate::output::provenance::MIN_BUDGET_SCHEMA,
     };
-    let metadata = crate::output::provenance(schema, &crate::output::Context::default());
+    let metadata = crate::output::provenance(
+        schema,
+        &crate::output::Context {
+            command: &super::command_line(),
+            ..Default::default()
+        },
+    );
     crate::output::write_parquet(&folder.join(name), &batch, metadata).map_err(runtime)
 }
 

@@ -60,6 +60,19 @@ pub fn runtime(error: impl Into<anyhow::Error>) -> Failure {
     }
 }
 
+/// A library error with the exit code of its kind ([`crate::error::Usage`]): 2 for a usage
+/// error, 1 for a failure while running.
+pub fn failure<E>(error: E) -> Failure
+where
+    E: crate::error::Usage + std::error::Error + Send + Sync + 'static,
+{
+    if error.is_usage() {
+        usage(error)
+    } else {
+        runtime(error)
+    }
+}
+
 /// Writes to standard output. A closed pipe (`mbmf ... | head`) ends the process quietly with
 /// success: the reader has what it wanted. Any other failure to write ends it with a message.
 pub fn write_stdout(text: std::fmt::Arguments<'_>) {
@@ -75,6 +88,15 @@ pub fn write_stdout(text: std::fmt::Arguments<'_>) {
         );
         std::process::exit(EXIT_RUNTIME);
     }
+}
+
+/// The command line, one space between arguments, as every file written records it. Lossy: an
+/// argument that is not UTF-8 (a path) must not stop the command.
+pub fn command_line() -> String {
+    std::env::args_os()
+        .map(|a| a.to_string_lossy().into_owned())
+        .collect::<Vec<_>>()
+        .join(" ")
 }
 
 /// mbmf: batch simulation of MF/MB expert coordination under variable human feedback.

@@ -37,6 +37,7 @@ pub fn command(args: &ReproduceArgs) -> Result<(), Failure> {
         quick: args.quick,
         runs: args.runs,
         seed: args.seed,
+        command: super::command_line(),
     };
     let bar = progress::bar(0, args.quiet, false);
     let summary = reproduce(&options, |n| bar.set_length(n), |n| bar.inc(n));

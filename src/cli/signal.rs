@@ -84,11 +84,6 @@ fn on_signal(signal: i32) {
     std::process::exit(128 + first);
 }
 
-/// Whether a signal asked the work to stop.
-pub fn requested() -> bool {
-    STOP.load(Ordering::SeqCst)
-}
-
 /// The exit code after a signal stopped the work: 128 + its number (130 before any signal).
 pub fn exit_code() -> i32 {
     128 + match RECEIVED.load(Ordering::SeqCst) {

@@ -168,6 +168,7 @@ pub fn command(args: &SweepArgs) -> Result<(), Failure> {
         resume: args.resume,
         shard,
         batch_size: args.batch_size,
+        command: super::command_line(),
     };
     let mut bar = None;
     let started = Instant::now();
@@ -308,10 +309,12 @@ pub fn compact(args: &CompactArgs) -> Result<(), Failure> {
             "--runs-per-file 0: give at least 1 run per file"
         )));
     }
-    let done = store::compact(&args.dir, args.runs_per_file).map_err(|e| match &e {
-        store::StoreError::Io { .. } | store::StoreError::Output(_) => runtime(e),
-        _ => usage(e),
-    })?;
+    let done = store::compact(&args.dir, args.runs_per_file, &super::command_line()).map_err(
+        |e| match &e {
+            store::StoreError::Io { .. } | store::StoreError::Output(_) => runtime(e),
+            _ => usage(e),
+        },
+    )?;
     outln!(
         "{}: {} runs in {} part(s) per table, {} before",
         args.dir.display(),

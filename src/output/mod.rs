@@ -10,7 +10,7 @@ pub mod atomic;
 pub mod columns;
 pub mod provenance;
 
-pub use provenance::{Context, command_line, provenance};
+pub use provenance::{Context, provenance};
 
 use std::fs::File;
 use std::path::{Path, PathBuf};
@@ -379,12 +379,18 @@ pub struct SweepOrigin<'a> {
 
 /// The key-value metadata of every results file of one command (`run`, `sweep`, `reproduce`):
 /// the provenance, the sweep it comes from (if any) and the master seed. Its `mbmf_schema` is
-/// the runs table's; [`with_schema`] gives the series table's.
-pub fn metadata(master_seed: u64, sweep: Option<&SweepOrigin<'_>>) -> Vec<(String, String)> {
+/// the runs table's; [`with_schema`] gives the series table's. `command` is the command that
+/// writes them, as the front end states it.
+pub fn metadata(
+    command: &str,
+    master_seed: u64,
+    sweep: Option<&SweepOrigin<'_>>,
+) -> Vec<(String, String)> {
     let context = Context {
         started: None,
         shard: sweep.and_then(|s| s.shard),
         sweep_text: sweep.map(|s| s.text),
+        command,
     };
     let mut kv = provenance(provenance::RUNS_SCHEMA, &context);
     if let Some(s) = sweep {

@@ -45,6 +45,9 @@ pub struct Context<'a> {
     pub shard: Option<(u32, u32)>,
     /// The sweep text, whose sha256 is recorded.
     pub sweep_text: Option<&'a str>,
+    /// The command that wrote the file, as the front end states it (the CLI gives its own
+    /// command line; a library caller whatever names its request).
+    pub command: &'a str,
 }
 
 /// The key-value metadata of a file of table `schema` (e.g. [`RUNS_SCHEMA`]): build, host,
@@ -67,7 +70,7 @@ pub fn provenance(schema: &str, context: &Context<'_>) -> Vec<(String, String)> 
             "mbmf_threads".into(),
             rayon::current_num_threads().to_string(),
         ),
-        ("mbmf_command".into(), command_line()),
+        ("mbmf_command".into(), context.command.to_string()),
     ];
     if let Some((index, count)) = context.shard {
         kv.push(("mbmf_shard".into(), format!("{index}/{count}")));
@@ -85,15 +88,6 @@ pub fn provenance(schema: &str, context: &Context<'_>) -> Vec<(String, String)> 
         kv.push(("mbmf_sweep_sha256".into(), sha256_hex(text.as_bytes())));
     }
     kv
-}
-
-/// The command line, one space between arguments. Lossy: an argument that is not UTF-8 (a
-/// path) must not stop the command.
-pub fn command_line() -> String {
-    std::env::args_os()
-        .map(|a| a.to_string_lossy().into_owned())
-        .collect::<Vec<_>>()
-        .join(" ")
 }
 
 /// The host name ("unknown-host" when the kernel does not say).
@@ -174,6 +168,7 @@ mod tests {
                 started: Some(UNIX_EPOCH),
                 shard: Some((1, 4)),
                 sweep_text: Some("abc"),
+                command: "mbmf sweep s.toml",
             },
         );
         let get = |k: &str| kv.iter().find(|(key, _)| key == k).map(|(_, v)| v.as_str());
@@ -182,6 +177,7 @@ mod tests {
         assert_eq!(get("mbmf_started_utc"), Some("1970-01-01T00:00:00.000Z"));
         assert_eq!(get("mbmf_sweep_sha256").map(|s| &s[..8]), Some("ba7816bf"));
         assert_eq!(get("mbmf_git_commit"), Some(GIT_COMMIT));
-        assert!(get("mbmf_command").is_some() && get("mbmf_rustc").is_some());
+        assert_eq!(get("mbmf_command"), Some("mbmf sweep s.toml"));
+        assert!(get("mbmf_rustc").is_some());
     }
 }

@@ -102,6 +102,7 @@ pub trait ParamValue: Copy {
     /// From a [`Value`] of its kind (`None` for any other).
     fn from_value(value: &Value) -> Option<Self>;
     /// The accepted names with their help, for `--help` (empty but for named choices).
+    #[cfg(feature = "cli")]
     fn possible_values() -> Vec<clap::builder::PossibleValue> {
         Vec::new()
     }
@@ -171,6 +172,7 @@ pub struct Param {
     /// Sets it from a value of its kind (values of another kind are ignored).
     pub set: fn(&mut Params, &Value),
     /// The accepted names with their help, for `--help`.
+    #[cfg(feature = "cli")]
     pub possible_values: fn() -> Vec<clap::builder::PossibleValue>,
 }
 
@@ -238,6 +240,7 @@ macro_rules! registry {
                         p $(.$group)? .$field = x;
                     }
                 },
+                #[cfg(feature = "cli")]
                 possible_values: <$ty as $crate::params::registry::ParamValue>::possible_values,
             },
         )*];

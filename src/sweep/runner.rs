@@ -27,6 +27,8 @@ pub struct Options {
     pub shard: Shard,
     /// Runs per batch, and so per part file (bounds memory; results do not depend on it).
     pub batch_size: usize,
+    /// The command recorded in every file's provenance (`mbmf_command`).
+    pub command: String,
 }
 
 /// What [`execute`] tells whoever watches it, in this order: warnings and the resume notice,
@@ -141,8 +143,9 @@ impl Report {
     }
 }
 
-/// Key-value metadata of every file written for `shard` of `sweep`: the provenance, the sweep.
-pub fn metadata(sweep: &Sweep, shard: Shard) -> Vec<(String, String)> {
+/// Key-value metadata of every file written for `shard` of `sweep` by `command`: the
+/// provenance, the sweep.
+pub fn metadata(sweep: &Sweep, shard: Shard, command: &str) -> Vec<(String, String)> {
     let origin = output::SweepOrigin {
         text: &sweep.text,
         file: &sweep.file,
@@ -150,7 +153,7 @@ pub fn metadata(sweep: &Sweep, shard: Shard) -> Vec<(String, String)> {
         seeds: sweep.seeds,
         shard: (shard != Shard::ALL).then_some((shard.index, shard.count)),
     };
-    output::metadata(sweep.master_seed, Some(&origin))
+    output::metadata(command, sweep.master_seed, Some(&origin))
 }
 
 /// A sweep's dataset folder, written one part (a runs file and a series file) per batch.
@@ -298,7 +301,7 @@ pub fn execute(
         writer: Parts {
             sweep,
             dir: out,
-            metadata: metadata(sweep, shard),
+            metadata: metadata(sweep, shard, &options.command),
         },
     };
     let mut ran = 0u64;

@@ -737,32 +737,16 @@ fn read_all(path: &Path) -> Result<PartContents, StoreError> {
 /// cannot, `b` is moved aside and `a` into its place: readers then briefly find no folder,
 /// never a mix of old and new files.
 fn exchange(a: &Path, b: &Path, aside: &Path) -> std::io::Result<()> {
-    use std::ffi::CString;
-    use std::os::unix::ffi::OsStrExt;
-    let ca = CString::new(a.as_os_str().as_bytes())?;
-    let cb = CString::new(b.as_os_str().as_bytes())?;
-    // SAFETY: two valid NUL-terminated paths; the call reads them and touches no memory of ours.
-    let rc = unsafe {
-        libc::syscall(
-            libc::SYS_renameat2,
-            libc::AT_FDCWD,
-            ca.as_ptr(),
-            libc::AT_FDCWD,
-            cb.as_ptr(),
-            libc::RENAME_EXCHANGE,
-        )
-    };
-    if rc == 0 {
+    use rustix::fs::{CWD, RenameFlags, renameat_with};
+    use rustix::io::Errno;
+    match renameat_with(CWD, a, CWD, b, RenameFlags::EXCHANGE) {
         // `a` now holds the old contents of `b`.
-        return fs::rename(a, aside);
-    }
-    let e = std::io::Error::last_os_error();
-    match e.raw_os_error() {
-        Some(libc::EINVAL) | Some(libc::ENOSYS) | Some(libc::EXDEV) => {
+        Ok(()) => fs::rename(a, aside),
+        Err(Errno::INVAL | Errno::NOSYS | Errno::XDEV) => {
             fs::rename(b, aside)?;
             fs::rename(a, b)
         }
-        _ => Err(e),
+        Err(e) => Err(e.into()),
     }
 }
 
@@ -771,8 +755,8 @@ fn exchange(a: &Path, b: &Path, aside: &Path) -> std::io::Result<()> {
 /// merging only parts that hold the same text parameters. The dataset is rebuilt in a sibling
 /// folder and swapped in at once, so a reader or a kill sees the old or the new dataset, never
 /// a mix; a `--resume` afterwards finds it complete. Refuses a dataset that a live process is
-/// writing or that misses runs.
-pub fn compact(dir: &Path, target_runs: u64) -> Result<Compacted, StoreError> {
+/// writing or that misses runs. `command` is recorded in the merged files (`mbmf_compacted_by`).
+pub fn compact(dir: &Path, target_runs: u64, command: &str) -> Result<Compacted, StoreError> {
     match fs::metadata(dir.join(SWEEP_FILE)) {
         Ok(_) => {}
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
@@ -871,7 +855,7 @@ pub fn compact(dir: &Path, target_runs: u64) -> Result<Compacted, StoreError> {
                 if chunk.is_empty() {
                     return Ok::<(), StoreError>(());
                 }
-                write_merged(&runs_dir, &series_dir, &staging, chunk, total)?;
+                write_merged(&runs_dir, &series_dir, &staging, chunk, total, command)?;
                 parts_after += 1;
                 chunk.clear();
                 Ok(())
@@ -931,6 +915,7 @@ fn write_merged(
     staging: &Path,
     chunk: &[&(String, u64)],
     total: u64,
+    command: &str,
 ) -> Result<(), StoreError> {
     let first = chunk
         .iter()
@@ -965,10 +950,7 @@ fn write_merged(
                             })
                             .cloned()
                             .collect();
-                        kv.push((
-                            "mbmf_compacted_by".into(),
-                            output::provenance::command_line(),
-                        ));
+                        kv.push(("mbmf_compacted_by".into(), command.to_string()));
                         kv.push((
                             "mbmf_compacted_utc".into(),
                             output::provenance::utc(std::time::SystemTime::now()),
