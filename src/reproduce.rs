@@ -22,8 +22,9 @@ use crate::output::OutputError;
 use crate::params::{Controller, Interaction, Profile, Selection, paper_budget};
 use crate::pipeline;
 use crate::plot::{self, PlotError};
+use crate::sweep::keys::{Key, Value};
 use crate::sweep::store::RunSet;
-use crate::sweep::{RunError, Shard, Sweep, runner};
+use crate::sweep::{Builder, RunError, Shard, runner};
 
 /// Budgets of the task-1 budget scan (0 is the no-interaction condition).
 pub const FULL_BUDGETS: [u32; 7] = [10, 20, 30, 50, 100, 200, 300];
@@ -320,41 +321,44 @@ fn profile_of(condition: &Condition) -> Profile {
     }
 }
 
-/// The conditions as a sweep file: one `[[zip]]` entry per condition, in order, so that run `r`
-/// of the sweep is run `r % runs` of condition `r / runs`.
-fn sweep_text(conditions: &[Condition], scale: &Scale, seed: u64, quick: bool) -> String {
-    let mut s = String::new();
-    let _ = writeln!(
-        s,
-        "# The conditions of `mbmf reproduce{}` (seed {seed}); `mbmf sweep` runs them again.",
-        if quick { " --quick" } else { "" }
-    );
-    let _ = writeln!(s, "seeds = {}\nmaster_seed = {seed}\n", scale.runs);
-    let _ = writeln!(s, "[fixed]\nbabbling = {}", scale.babbling);
-    let _ = writeln!(s, "checkpoint = {}\n\n[[zip]]", scale.checkpoint);
-    let value = |key: &str, c: &Condition| match key {
-        "task" => format!("{:?}", c.task),
-        "controller" => format!("{:?}", c.controller.name()),
-        "selection" => format!("{:?}", c.selection.name()),
-        "interaction" => format!("{:?}", c.interaction.name()),
-        "budget" => c.budget.to_string(),
-        "steps" if c.task == "tidy2" => scale.steps_task2.to_string(),
-        "steps" => scale.steps_task1.to_string(),
-        _ => format!("{:?}", profile_of(c).name()),
+/// The conditions as a sweep: one `[[zip]]` entry per condition, in order, so that run `r` of
+/// the sweep is run `r % runs` of condition `r / runs`.
+fn conditions_sweep(conditions: &[Condition], scale: &Scale, seed: u64, quick: bool) -> Builder {
+    let column = |name: &str, value: &dyn Fn(&Condition) -> Value| {
+        let key = if name == "task" {
+            Key::Task
+        } else {
+            Key::named(name)
+        };
+        (key, conditions.iter().map(value).collect())
     };
-    let keys = [
-        "task",
-        "controller",
-        "selection",
-        "interaction",
-        "budget",
-        "steps",
-    ];
-    for key in keys.into_iter().chain(["profile"]) {
-        let values: Vec<String> = conditions.iter().map(|c| value(key, c)).collect();
-        let _ = writeln!(s, "{key} = [{}]", values.join(", "));
-    }
-    s
+    let steps = |c: &Condition| {
+        Value::Count(if c.task == "tidy2" {
+            scale.steps_task2
+        } else {
+            scale.steps_task1
+        })
+    };
+    Builder::new()
+        .comment(&format!(
+            "The conditions of `mbmf reproduce{}` (seed {seed}); `mbmf sweep` runs them again.",
+            if quick { " --quick" } else { "" }
+        ))
+        .seeds(scale.runs)
+        .master_seed(seed)
+        .fixed(Key::named("babbling"), Value::Count(scale.babbling))
+        .fixed(Key::named("checkpoint"), Value::Count(scale.checkpoint))
+        .zip(vec![
+            column("task", &|c| Value::Text(c.task.to_string())),
+            column("controller", &|c| Value::Choice(c.controller.name())),
+            column("selection", &|c| Value::Choice(c.selection.name())),
+            column("interaction", &|c| Value::Choice(c.interaction.name())),
+            column("budget", &|c| Value::Count(c.budget)),
+            column("steps", &steps),
+            column("profile", &|c| {
+                Value::Text(profile_of(c).name().to_string())
+            }),
+        ])
 }
 
 /// Runs the paper's experiments into `options.out` and writes the report; `total` is told the
@@ -406,16 +410,16 @@ fn simulate_all(
     mut progress: impl FnMut(u64),
 ) -> Result<Vec<Outcome>, ReproduceError> {
     let conditions = conditions(scale);
-    let text = sweep_text(&conditions, scale, args.seed, args.quick);
     let file = args.out.join("sweep.toml");
-    let sweep = Sweep::parse(&file.display().to_string(), &args.out, &text)?;
+    let sweep = conditions_sweep(&conditions, scale, args.seed, args.quick)
+        .build(&file.display().to_string(), &args.out)?;
     let specs = sweep.load_specs()?;
     let data = args.out.join("data");
     std::fs::create_dir_all(&data).map_err(|cause| ReproduceError::CreateDir {
         path: data.clone(),
         cause,
     })?;
-    write_atomic(&file, &text)?;
+    write_atomic(&file, &sweep.text)?;
     let seeds = u64::from(sweep.seeds);
     total(
         (0..sweep.configurations())

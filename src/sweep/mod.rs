@@ -2,18 +2,21 @@
 //! into configurations, run in batches and streamed to a Parquet dataset that survives kills,
 //! resumes, and splits into shards for job arrays. `sweeps/README.md` documents the file format.
 //!
+//! - [`builder`]: sweeps built in code, with their canonical text.
 //! - [`file`]: parsing and validation (messages name the file, line and key), expansion.
 //! - [`keys`]: the parameters a sweep may set and how they map to [`crate::params::Params`].
 //! - [`shard`]: `--shard I/N` and the Slurm / Kubernetes environment.
 //! - [`store`]: the dataset folder: atomic parts, lock, resume scan, compaction.
 //! - [`runner`]: batching, simulation, progress, and the `--dry-run` estimate.
 
+pub mod builder;
 pub mod file;
 pub mod keys;
 pub mod runner;
 pub mod shard;
 pub mod store;
 
+pub use builder::Builder;
 pub use file::{Sweep, SweepError};
 pub use runner::{Event, Options, Report, RunError, execute};
 pub use shard::Shard;
