@@ -12,7 +12,6 @@
 #![allow(clippy::too_many_arguments)]
 
 pub mod analysis;
-pub mod atomic;
 pub mod batch;
 pub mod bench;
 pub mod env;
@@ -32,3 +31,4 @@ pub mod schedule;
 pub mod sizing;
 pub mod suggest;
 pub mod sweep;
+pub mod whole_file;

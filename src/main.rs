@@ -9,8 +9,8 @@ mod cli;
 // library's as `crate::...`, as they did when they lived inside it.
 #[allow(unused_imports)]
 use mbmf::{
-    analysis, atomic, batch, bench, env, error, expert, human, meta, output, params, pipeline,
-    plot, reproduce, rng, run, run_stats, schedule, sizing, suggest, sweep,
+    analysis, batch, bench, env, error, expert, human, meta, output, params, pipeline, plot,
+    reproduce, rng, run, run_stats, schedule, sizing, suggest, sweep, whole_file,
 };
 
 fn main() {

@@ -394,7 +394,7 @@ pub fn reproduce(
 }
 
 fn write_atomic(path: &Path, text: &str) -> Result<(), ReproduceError> {
-    crate::atomic::write_atomic(path, text.as_bytes())
+    crate::whole_file::write_atomic(path, text.as_bytes())
         .map_err(|(path, cause)| ReproduceError::Write { path, cause })
 }
 

@@ -9,7 +9,7 @@
 //! dictionary or not) is widened to one of these, so files written by polars or pandas read the
 //! same way, and a dataset whose files disagree on an integer's signedness reads as Int64.
 
-use crate::suggest::edit_distance;
+use crate::suggest::closest;
 use crate::sweep::store::{self, RUNS_DIR, SERIES_DIR, SWEEP_FILE};
 use std::cmp::Ordering;
 use std::collections::BTreeSet;
@@ -709,28 +709,6 @@ impl Table {
     }
 }
 
-/// The closest of `candidates` to `name`, ignoring case, if it is a plausible typo: the
-/// smallest edit distance to the whole candidate or to one of its `_`-separated words
-/// (`kapa` -> `kappa_coeff`, `cost` -> `cost_mf`), at most a third of the length compared (at
-/// least 1); ties go to the shorter candidate.
-pub fn closest<'a>(name: &str, candidates: impl Iterator<Item = &'a str>) -> Option<&'a str> {
-    let target = name.to_lowercase();
-    let allowed = |other: &str| (target.chars().count().max(other.chars().count()) / 3).max(1);
-    candidates
-        .filter_map(|c| {
-            let lower = c.to_lowercase();
-            std::iter::once(lower.as_str())
-                .chain(lower.split('_'))
-                .map(|part| (edit_distance(&target, part), part))
-                .filter(|&(d, part)| d <= allowed(part))
-                .map(|(d, _)| d)
-                .min()
-                .map(|d| (d, c.len(), c))
-        })
-        .min()
-        .map(|(_, _, c)| c)
-}
-
 /// Reads one Parquet file into a table.
 pub fn read_parquet_file(path: &Path) -> Result<Table, DatasetError> {
     read_file(path).map(|(table, _)| table)
@@ -1225,27 +1203,17 @@ pub fn output_folder(path: &Path) -> PathBuf {
     root.join("analysis")
 }
 
-/// The parameter columns `mbmf run` and `mbmf sweep` write (identity first: `run_index`,
-/// `seed`), taken from [`crate::output::param_columns`] so the two never drift apart.
+/// The parameter columns `mbmf run` and `mbmf sweep` write, in their order: the run's identity
+/// (`run_index`, `master_seed`), the task, then every parameter of the registry
+/// ([`crate::params::PARAMS`]), as [`crate::output::param_columns`] writes them.
 pub fn parameter_columns() -> &'static [String] {
     static NAMES: OnceLock<Vec<String>> = OnceLock::new();
     NAMES.get_or_init(|| {
-        let config = crate::batch::RunConfig {
-            params: crate::params::Params::default(),
-            seed: 0,
-            run_index: 0,
-        };
-        let mut cols = crate::output::Columns::default();
-        crate::output::param_columns(&mut cols, "tidy1", std::iter::once(&config));
-        cols.finish()
-            .map(|b| {
-                b.schema()
-                    .fields()
-                    .iter()
-                    .map(|f| f.name().clone())
-                    .collect()
-            })
-            .unwrap_or_default()
+        ["run_index", "master_seed", "task"]
+            .into_iter()
+            .chain(crate::params::PARAMS.iter().map(|p| p.name))
+            .map(String::from)
+            .collect()
     })
 }
 
@@ -1253,8 +1221,8 @@ pub fn parameter_columns() -> &'static [String] {
 /// never averaged (`config_index` and `seed_index` are added by `mbmf sweep`).
 pub const RUN_IDENTITY: [&str; 4] = ["run_index", "master_seed", "config_index", "seed_index"];
 
-/// The configuration columns of `table`: its parameter columns except `run_index` and `seed`,
-/// in the order `mbmf` writes them.
+/// The configuration columns of `table`: its parameter columns except those of
+/// [`RUN_IDENTITY`], in the order `mbmf` writes them.
 pub fn configuration_columns(table: &Table) -> Vec<String> {
     parameter_columns()
         .iter()
@@ -1422,6 +1390,7 @@ impl Filter {
 mod tests {
     use super::*;
 
+    /// Column names go through the one "did you mean" rule of [`crate::suggest`].
     #[test]
     fn closest_names_catch_typos_but_not_unrelated_words() {
         let names = ["total_reward", "cost_total", "mean_entropy_chosen"];
@@ -1436,13 +1405,6 @@ mod tests {
             Some("kappa_coeff")
         );
         assert_eq!(closest("cost", names.into_iter()), Some("cost_total"));
-    }
-
-    #[test]
-    fn edit_distance_counts_insertions_deletions_and_substitutions() {
-        assert_eq!(edit_distance("kitten", "sitting"), 3);
-        assert_eq!(edit_distance("", "abc"), 3);
-        assert_eq!(edit_distance("abc", "abc"), 0);
     }
 
     #[test]

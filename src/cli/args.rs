@@ -116,7 +116,7 @@ fn flag(param: &'static Param) -> Arg {
     }
 }
 
-/// Most runs per controller of one `mbmf run` (every configuration is held in memory).
+/// Most runs per controller of one `mbmf run`.
 pub const MAX_RUNS: u64 = 1_000_000;
 
 /// Most worker threads `--threads` accepts.

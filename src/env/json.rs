@@ -1168,9 +1168,9 @@ fn spaces_text(spec: &Spec) -> String {
     )
 }
 
-/// Writes `text` over `path` atomically (see [`crate::atomic`]).
+/// Writes `text` over `path` atomically (see [`crate::whole_file`]).
 fn write_atomic(path: &Path, text: &str) -> Result<(), EnvFileError> {
-    crate::atomic::write_atomic(path, text.as_bytes())
+    crate::whole_file::write_atomic(path, text.as_bytes())
         .map_err(|(path, error)| EnvFileError::Write { path, error })
 }
 

@@ -4,9 +4,10 @@
 //! until the runs file has been replaced too. A process killed between the two moves leaves the
 //! old runs file, the new series file and the old series file under its hidden name:
 //! [`committed_file`] then names the old series file, so a reader that follows it sees the old
-//! pair, and otherwise the new pair, never a mix.
+//! pair, and otherwise the new pair, never a mix. (Single files written whole are
+//! [`crate::whole_file`]'s.)
 
-use crate::atomic::{remove_dead_leftovers, sync};
+use crate::whole_file::{remove_dead_leftovers, sync};
 use std::fs::File;
 use std::path::{Path, PathBuf};
 

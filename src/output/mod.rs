@@ -425,3 +425,31 @@ pub fn describe(batch: &RecordBatch) -> Vec<(String, DataType, bool)> {
         .map(|f| (f.name().clone(), f.data_type().clone(), f.is_nullable()))
         .collect()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The analyses name the parameter columns from the registry alone; this is the check that
+    /// they are the columns a run writes, in its order.
+    #[test]
+    fn the_analyses_know_the_parameter_columns_a_run_writes() {
+        let config = RunConfig {
+            params: crate::params::Params::default(),
+            seed: 0,
+            run_index: 0,
+        };
+        let mut cols = Columns::default();
+        param_columns(&mut cols, "tidy1", std::iter::once(&config));
+        let written: Vec<String> = cols
+            .finish()
+            .expect("columns of one row")
+            .schema()
+            .fields()
+            .iter()
+            .map(|f| f.name().clone())
+            .collect();
+        assert_eq!(written, crate::analysis::dataset::parameter_columns());
+        assert_eq!(written[..3], ["run_index", "master_seed", "task"]);
+    }
+}

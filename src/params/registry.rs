@@ -274,7 +274,10 @@ macro_rules! registry {
             }
         }
 
-        $crate::params::registry::registry!(@split [] []; $([$($group)?] $field: $ty = $default, $doc;)*);
+        // Each field's doc says its default and, where narrower than its type, its range.
+        $crate::params::registry::registry!(@split [] []; $([$($group)?] $field: $ty = $default,
+            concat!($doc, ". Default: `", stringify!($default), "`"
+                $(, "; accepted: ", $accepted)?, ".");)*);
     };
     (@flag special) => { false };
     (@flag $class:ident) => { true };
@@ -283,14 +286,14 @@ macro_rules! registry {
     (@human human) => { true };
     (@human) => { false };
     // Sorts the fields into `Params` and `HumanParams`.
-    (@split [$($p:tt)*] [$($h:tt)*]; [human] $f:ident: $t:ty = $d:expr, $doc:literal; $($rest:tt)*) => {
+    (@split [$($p:tt)*] [$($h:tt)*]; [human] $f:ident: $t:ty = $d:expr, $doc:expr; $($rest:tt)*) => {
         $crate::params::registry::registry!(@split [$($p)*] [$($h)* ($f, $t, $d, $doc)]; $($rest)*);
     };
-    (@split [$($p:tt)*] [$($h:tt)*]; [] $f:ident: $t:ty = $d:expr, $doc:literal; $($rest:tt)*) => {
+    (@split [$($p:tt)*] [$($h:tt)*]; [] $f:ident: $t:ty = $d:expr, $doc:expr; $($rest:tt)*) => {
         $crate::params::registry::registry!(@split [$($p)* ($f, $t, $d, $doc)] [$($h)*]; $($rest)*);
     };
-    (@split [$(($pf:ident, $pt:ty, $pd:expr, $pdoc:literal))*]
-        [$(($hf:ident, $ht:ty, $hd:expr, $hdoc:literal))*];) => {
+    (@split [$(($pf:ident, $pt:ty, $pd:expr, $pdoc:expr))*]
+        [$(($hf:ident, $ht:ty, $hd:expr, $hdoc:expr))*];) => {
         /// Every sweepable scalar of one run. `Default` gives the paper's values (SPEC 3, 4, 7).
         #[derive(Debug, Clone, Copy, PartialEq)]
         pub struct Params {

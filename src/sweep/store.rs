@@ -398,7 +398,7 @@ pub fn init_folder(dir: &Path, text: &str, file: &str) -> Result<(), StoreError>
     compare_text(dir, &existing, text, file)?;
     // Copies of the text that processes killed during start-up left are of no use now. A live
     // process of another host whose copy goes too finds sweep.toml stored (see above).
-    crate::atomic::remove_dead_leftovers(dir, ".sweep.toml.tmp-");
+    crate::whole_file::remove_dead_leftovers(dir, ".sweep.toml.tmp-");
     for sub in [RUNS_DIR, SERIES_DIR] {
         let path = dir.join(sub);
         fs::create_dir_all(&path).map_err(io("create", &path))?;

@@ -1,7 +1,7 @@
 //! Files written whole or not at all: each is written under a hidden temporary name beside its
 //! target, synced, then renamed over it, so a reader (or a crash) sees the old file or the new
 //! one, never a part. A leaf module: the environment exporter, the run and sweep writers and the
-//! reports all use it.
+//! reports all use it. (The two-file commit of a run is [`crate::output::atomic`]'s.)
 
 use std::fs::{self, File};
 use std::io::Write as _;
