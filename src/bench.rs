@@ -11,6 +11,7 @@ use std::time::Instant;
 
 use crate::batch::{Batch, RunConfig};
 use crate::env::{self, Spec};
+use crate::error::IoError;
 use crate::params::{ConfigError, Controller, Params};
 use crate::plot::{LineChart, PlotError, Series, line_chart};
 
@@ -35,24 +36,9 @@ pub enum BenchError {
     /// A benchmark's batch refused its parameters.
     #[error(transparent)]
     Config(#[from] ConfigError),
-    /// The output folder could not be created.
-    #[error("cannot create {}", path.display())]
-    CreateDir {
-        /// The folder.
-        path: PathBuf,
-        /// Why.
-        #[source]
-        cause: std::io::Error,
-    },
-    /// A file could not be written.
-    #[error("cannot write {}", path.display())]
-    Write {
-        /// The file.
-        path: PathBuf,
-        /// Why.
-        #[source]
-        cause: std::io::Error,
-    },
+    /// The output folder could not be created or a file written.
+    #[error(transparent)]
+    Io(#[from] IoError),
     /// A chart could not be drawn.
     #[error(transparent)]
     Plot(#[from] PlotError),
@@ -271,10 +257,8 @@ pub fn growth(
 /// Writes `growth.csv` and the log-log charts `growth_time` and `growth_memory` into `out`;
 /// returns the files written, the CSV first.
 pub fn write_growth(points: &[GrowthPoint], out: &Path) -> Result<Vec<PathBuf>, BenchError> {
-    std::fs::create_dir_all(out).map_err(|cause| BenchError::CreateDir {
-        path: out.to_path_buf(),
-        cause,
-    })?;
+    std::fs::create_dir_all(out)
+        .map_err(IoError::doing(format!("cannot create {}", out.display())))?;
     let mut csv = String::from(
         "states,controller,us_per_step,steps_per_s,bytes_per_run,reward,known_states,sweeps_per_vi\n",
     );
@@ -292,10 +276,10 @@ pub fn write_growth(points: &[GrowthPoint], out: &Path) -> Result<Vec<PathBuf>, 
         ));
     }
     let csv_path = out.join("growth.csv");
-    std::fs::write(&csv_path, csv).map_err(|cause| BenchError::Write {
-        path: csv_path.clone(),
-        cause,
-    })?;
+    std::fs::write(&csv_path, csv).map_err(IoError::doing(format!(
+        "cannot write {}",
+        csv_path.display()
+    )))?;
     let series_of = |y: &dyn Fn(&GrowthPoint) -> f64| -> Vec<Series> {
         GROWTH_CONTROLLERS
             .iter()

@@ -1,4 +1,4 @@
-//! Which errors are the caller's. Every entry of the library returns a typed error; this trait
+//! Which errors are the caller's. Every entry of the library returns a typed error; [`Usage`]
 //! says whether it is a usage error (an input that can never work: a bad value, a file in the
 //! way, a job too large for the machine) or a failure while running (a write that failed, a
 //! full disk, a stop request), so a front end decides once what to do with each kind — the
@@ -10,35 +10,38 @@ pub trait Usage {
     fn is_usage(&self) -> bool;
 }
 
-impl Usage for crate::params::ConfigError {
-    fn is_usage(&self) -> bool {
-        true
+/// A file system operation that failed, saying what was being done (with its path): a failure
+/// while running, never a usage error.
+#[derive(Debug, thiserror::Error)]
+#[error("{what}")]
+pub struct IoError {
+    /// What could not be done ("cannot create output folder out/run").
+    pub what: String,
+    /// Why.
+    #[source]
+    pub cause: std::io::Error,
+}
+
+impl IoError {
+    /// A mapper of [`std::io::Error`]s for `map_err`, saying `what` was being done.
+    pub fn doing(what: String) -> impl FnOnce(std::io::Error) -> IoError {
+        move |cause| IoError { what, cause }
     }
 }
 
-impl Usage for crate::sweep::SweepError {
-    fn is_usage(&self) -> bool {
-        true
-    }
+/// `impl Usage` for error types that are always, or never, usage errors.
+macro_rules! always {
+    ($usage:literal: $($ty:ty),*) => {$(
+        impl Usage for $ty {
+            fn is_usage(&self) -> bool {
+                $usage
+            }
+        }
+    )*};
 }
 
-impl Usage for crate::output::OutputError {
-    fn is_usage(&self) -> bool {
-        false
-    }
-}
-
-impl Usage for crate::pipeline::Interrupted {
-    fn is_usage(&self) -> bool {
-        false
-    }
-}
-
-impl Usage for crate::pipeline::TooLarge {
-    fn is_usage(&self) -> bool {
-        true
-    }
-}
+always!(true: crate::params::ConfigError, crate::sweep::SweepError, crate::pipeline::TooLarge);
+always!(false: IoError, crate::output::OutputError, crate::pipeline::Interrupted);
 
 impl Usage for crate::sweep::RunError {
     fn is_usage(&self) -> bool {

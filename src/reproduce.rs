@@ -18,6 +18,7 @@ use std::time::Instant;
 use crate::analysis::dataset::DatasetError;
 use crate::analysis::stats::{self, Alternative};
 use crate::batch::{Batch, Checkpoint, RunStats};
+use crate::error::IoError;
 use crate::output::OutputError;
 use crate::params::{Controller, Interaction, Profile, Selection, paper_budget};
 use crate::pipeline;
@@ -59,24 +60,9 @@ pub struct Options {
 /// caller, so none is a usage error.
 #[derive(Debug, thiserror::Error)]
 pub enum ReproduceError {
-    /// A folder could not be created.
-    #[error("cannot create output folder {}", path.display())]
-    CreateDir {
-        /// The folder.
-        path: PathBuf,
-        /// Why.
-        #[source]
-        cause: std::io::Error,
-    },
-    /// A file could not be written.
-    #[error("cannot write {}", path.display())]
-    Write {
-        /// The file.
-        path: PathBuf,
-        /// Why.
-        #[source]
-        cause: std::io::Error,
-    },
+    /// A folder could not be created or a file written.
+    #[error(transparent)]
+    Io(#[from] IoError),
     /// The conditions' sweep could not be built or its tasks loaded.
     #[error(transparent)]
     Sweep(#[from] crate::sweep::SweepError),
@@ -394,8 +380,9 @@ pub fn reproduce(
 }
 
 fn write_atomic(path: &Path, text: &str) -> Result<(), ReproduceError> {
-    crate::whole_file::write_atomic(path, text.as_bytes())
-        .map_err(|(path, cause)| ReproduceError::Write { path, cause })
+    crate::whole_file::write_atomic(path, text.as_bytes()).map_err(|(path, cause)| {
+        IoError::doing(format!("cannot write {}", path.display()))(cause).into()
+    })
 }
 
 /// Runs per batch of a reproduction.
@@ -415,10 +402,10 @@ fn simulate_all(
         .build(&file.display().to_string(), &args.out)?;
     let specs = sweep.load_specs()?;
     let data = args.out.join("data");
-    std::fs::create_dir_all(&data).map_err(|cause| ReproduceError::CreateDir {
-        path: data.clone(),
-        cause,
-    })?;
+    std::fs::create_dir_all(&data).map_err(IoError::doing(format!(
+        "cannot create output folder {}",
+        data.display()
+    )))?;
     write_atomic(&file, &sweep.text)?;
     let seeds = u64::from(sweep.seeds);
     total(

@@ -28,6 +28,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use crate::batch::{Batch, RunConfig};
 use crate::env::Spec;
+use crate::error::IoError;
 use crate::output::{self, OutputError};
 use crate::params::{ConfigError, Controller, Interaction, Params};
 use crate::pipeline::{self, Interrupted, TooLarge};
@@ -140,15 +141,9 @@ pub enum RunError {
     /// `force`).
     #[error("{0}")]
     Out(String),
-    /// A file system operation failed; `what` says which, with its path.
-    #[error("{what}")]
-    Io {
-        /// What could not be done ("cannot create output folder out/run").
-        what: String,
-        /// Why.
-        #[source]
-        cause: std::io::Error,
-    },
+    /// A file system operation failed.
+    #[error(transparent)]
+    Io(#[from] IoError),
     /// The summary's temporary file could not be written.
     #[error(transparent)]
     Spill(std::io::Error),
@@ -185,7 +180,7 @@ impl From<ConfigError> for RunError {
 
 /// An [`std::io::Error`] with what was being done.
 fn io(what: String) -> impl FnOnce(std::io::Error) -> RunError {
-    move |cause| RunError::Io { what, cause }
+    |cause| IoError::doing(what)(cause).into()
 }
 
 /// A checked job; see the module documentation for the steps.

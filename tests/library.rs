@@ -1,40 +1,26 @@
 //! The library entry of `mbmf run` ([`mbmf::run`]) as a second front end calls it: the same
 //! job gives the same rows as the command line, warnings come back as data, a raised stop flag
-//! writes nothing, and refusals say they are usage errors.
+//! writes nothing, and refusals say they are usage errors. The job is the one of
+//! `examples/run_library.rs`.
 
 mod common;
 
 use std::path::Path;
-use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
 
 use common::*;
 use mbmf::error::Usage as _;
-use mbmf::params::{Controller, Interaction, Params, Profile};
+use mbmf::params::{Controller, Interaction};
 use mbmf::run::{Job, Run, RunError, execute};
 
-/// EC and MF with a takeover human, as `mbmf run --controller ec,mf --interaction takeover
-/// --budget 20 --steps 1000 --babbling 100 --runs 4 --seed 7` builds them.
+/// The example front end's job, with the command it records.
+#[path = "../examples/run_library.rs"]
+mod example;
+
 fn job(out: &Path) -> Job {
-    let spec = Arc::new(mbmf::env::load("tidy1").unwrap());
-    let configs = [Controller::Ec, Controller::Mf].map(|controller| {
-        let mut params = Params {
-            controller,
-            steps: 1_000,
-            babbling: 100,
-            ..Params::default()
-        };
-        params.human.interaction = Interaction::Takeover;
-        params.human.budget = 20;
-        // Human fields set without a profile describe a custom human, as the CLI records.
-        params.profile = Profile::Custom;
-        params
-    });
     Job {
-        runs: 4,
-        seed: 7,
         command: "a library test".into(),
-        ..Job::new("tidy1", spec, configs.to_vec(), out)
+        ..example::job(out).expect("tidy1 loads")
     }
 }
 
