@@ -112,7 +112,8 @@ fn window_rate(template: &Batch, pool: &rayon::ThreadPool, window: u64) -> f64 {
     (after - before) as f64 / seconds.max(1e-9)
 }
 
-fn pool(threads: usize) -> Result<rayon::ThreadPool, BenchError> {
+/// A rayon pool of exactly `threads` threads (the benchmarks' too).
+pub fn pool(threads: usize) -> Result<rayon::ThreadPool, BenchError> {
     rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()

@@ -10,12 +10,15 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use criterion::Criterion;
-use mbmf::batch::{Batch, RunConfig};
+use mbmf::batch::Batch;
 use mbmf::env::Spec;
 use mbmf::params::{Controller, Params, default_steps};
 
-/// Master seed of every benchmark input.
-pub const SEED: u64 = 20_200_831;
+/// Master seed of every benchmark input, and `runs` runs of some parameters under it: those of
+/// `mbmf bench`, so the two time the same work.
+// Each benchmark uses a part of this module.
+#[allow(unused_imports)]
+pub use mbmf::bench::{SEED, configs};
 
 /// Criterion settings that keep `cargo bench` to a few minutes on a 2-core machine: 10 samples,
 /// short warm-up and measurement. Command-line flags (`--measurement-time`, ...) still override.
@@ -67,13 +70,8 @@ pub fn environments() -> Vec<(&'static str, Arc<Spec>)> {
     envs
 }
 
-/// The paper's four controllers.
-pub const CONTROLLERS: [Controller; 4] = [
-    Controller::Mf,
-    Controller::Mb,
-    Controller::Rnd,
-    Controller::Ec,
-];
+/// The paper's four controllers (those of `mbmf bench --growth`).
+pub const CONTROLLERS: [Controller; 4] = mbmf::bench::GROWTH_CONTROLLERS;
 
 /// Paper defaults for `controller` on `spec` (no human, experiment length of the task).
 pub fn params(spec: &Spec, controller: Controller) -> Params {
@@ -82,17 +80,6 @@ pub fn params(spec: &Spec, controller: Controller) -> Params {
         steps: default_steps(&spec.name),
         ..Params::default()
     }
-}
-
-/// `runs` runs of `params` with run indices 0.. under [`SEED`].
-pub fn configs(params: Params, runs: usize) -> Vec<RunConfig> {
-    (0..runs as u64)
-        .map(|run_index| RunConfig {
-            params,
-            seed: SEED,
-            run_index,
-        })
-        .collect()
 }
 
 /// Where in a run a timed window starts.
@@ -148,10 +135,7 @@ pub fn prepared(
     batch.clone()
 }
 
-/// A rayon pool of exactly `threads` threads.
+/// A rayon pool of exactly `threads` threads ([`mbmf::bench::pool`]).
 pub fn pool(threads: usize) -> rayon::ThreadPool {
-    rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .expect("a thread pool")
+    mbmf::bench::pool(threads).expect("a thread pool")
 }
