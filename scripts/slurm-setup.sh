@@ -50,22 +50,9 @@ show_logs() {
 }
 die_logs() { echo "slurm-setup: ERROR: $*" >&2; show_logs; exit 1; }
 
-# Is process $1 alive (exists and is not a zombie)?
-alive() {
-  local st
-  st="$(sed 's/.*) //' "/proc/$1/stat" 2>/dev/null | cut -d' ' -f1)" || return 1
-  [[ -n "$st" && "$st" != Z && "$st" != X ]]
-}
-
-# Is the process in pidfile $1 alive and called $2?
-running() {
-  local pidfile=$1 name=$2 pid
-  [[ -r "$pidfile" ]] || return 1
-  pid="$(cat "$pidfile" 2>/dev/null)" || return 1
-  [[ "$pid" =~ ^[0-9]+$ ]] || return 1
-  alive "$pid" || return 1
-  [[ "$(cat "/proc/$pid/comm" 2>/dev/null)" == "$name"* ]]
-}
+# alive, pid_of, running
+# shellcheck source=scripts/slurm-pids.sh
+. "$(dirname "${BASH_SOURCE[0]}")/slurm-pids.sh"
 
 stop_pidfile() {
   local pidfile=$1 name=$2 i

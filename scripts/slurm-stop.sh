@@ -22,22 +22,9 @@ MUNGE_PID=/run/munge/munged.pid
 
 log() { echo "slurm-stop: $*"; }
 
-# Is process $1 alive (exists and is not a zombie)?
-alive() {
-  local st
-  st="$(sed 's/.*) //' "/proc/$1/stat" 2>/dev/null | cut -d' ' -f1)" || return 1
-  [[ -n "$st" && "$st" != Z && "$st" != X ]]
-}
-
-# pid from pidfile $1 if that process is alive and its name starts with $2.
-pid_of() {
-  local pidfile=$1 name=$2 pid
-  [[ -r "$pidfile" ]] || return 1
-  pid="$(cat "$pidfile" 2>/dev/null)" || return 1
-  [[ "$pid" =~ ^[0-9]+$ ]] && alive "$pid" || return 1
-  [[ "$(cat "/proc/$pid/comm" 2>/dev/null)" == "$name"* ]] || return 1
-  echo "$pid"
-}
+# alive, pid_of
+# shellcheck source=scripts/slurm-pids.sh
+. "$(dirname "${BASH_SOURCE[0]}")/slurm-pids.sh"
 
 failed=0
 stop() {

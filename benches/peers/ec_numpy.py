@@ -24,10 +24,6 @@ MB's `ops` cost, can differ a little (the output prints both means).
   python ec_numpy.py [--runs B] [--steps N] [--babbling N] [--seed S] [--check] [--json]
 """
 
-import argparse
-import json
-import sys
-import time
 
 import numpy as np
 
@@ -234,21 +230,11 @@ def simulate(n_runs, steps, babbling, seed, last=500):
 
 
 def main():
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--runs", type=int, default=256)
-    ap.add_argument("--steps", type=int, default=2000)
-    ap.add_argument("--babbling", type=int, default=1000)
-    ap.add_argument("--seed", type=int, default=1)
-    ap.add_argument("--check", action="store_true", help="also run mbmf on the same work and compare")
-    ap.add_argument("--json", action="store_true", help="print one JSON line of timing for run.py")
-    args = ap.parse_args()
-    started, cpu_started = time.perf_counter(), time.process_time()
-    st = simulate(args.runs, args.steps, args.babbling, args.seed)
-    seconds, cpu_seconds = time.perf_counter() - started, time.process_time() - cpu_started
+    args = tidy1.arguments(__doc__, runs=256).parse_args()
+    st, seconds, cpu_seconds = tidy1.timed(lambda: simulate(args.runs, args.steps, args.babbling, args.seed))
     agent_steps = args.runs * (args.babbling + args.steps)
     if args.json:
-        print(json.dumps({"impl": "numpy-ec", "seconds": seconds, "cpu_seconds": cpu_seconds,
-                          "agent_steps": agent_steps, "reward_last500": float(st["reward_last"].mean())}))
+        tidy1.print_timing("numpy-ec", seconds, cpu_seconds, agent_steps, st["reward_last"].mean())
         return
     print(f"numpy EC (float64, MB arrays float32): {args.runs} runs x ({args.babbling} + {args.steps}) steps in {seconds:.2f} s"
           f" = {agent_steps / seconds:,.0f} agent-steps/s")
@@ -268,10 +254,7 @@ def main():
         ref, tb = tidy1.mbmf_last(out, args.steps)
         print("  mbmf: " + summary(ref, tb["total_reward"], tb["mb_share"], tb["cost_mb"], tb["cost_mf"],
                                    tb["vi_calls"], tb["vi_sweeps"]))
-        v = tidy1.verdict(st["reward_last"].mean(), ref.mean())
-        print(f"  verdict: {v}")
-        if v.startswith("FAR"):
-            sys.exit(1)
+        tidy1.print_verdict(st["reward_last"].mean(), ref.mean())
 
 
 if __name__ == "__main__":

@@ -20,10 +20,7 @@ and called once as a warm-up with another seed before the timed call.
   python mf_jax.py [--runs B] [--steps N] [--babbling N] [--seed S] [--check] [--json]
 """
 
-import argparse
-import json
 import os
-import sys
 import time
 
 import numpy as np
@@ -115,27 +112,18 @@ def build(n_runs, steps, babbling, last=500, unroll=1):
 
 
 def main():
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--runs", type=int, default=512)
-    ap.add_argument("--steps", type=int, default=2000)
-    ap.add_argument("--babbling", type=int, default=1000)
-    ap.add_argument("--seed", type=int, default=1)
+    ap = tidy1.arguments(__doc__, runs=512)
     ap.add_argument("--unroll", type=int, default=1, help="lax.scan unroll factor")
-    ap.add_argument("--check", action="store_true", help="also run mbmf on the same work and compare")
-    ap.add_argument("--json", action="store_true", help="print one JSON line of timing for run.py")
     args = ap.parse_args()
     t0 = time.perf_counter()
     fn = build(args.runs, args.steps, args.babbling, unroll=args.unroll)
     compile_s = time.perf_counter() - t0
     jax.block_until_ready(fn(jnp.int32(args.seed + 1000)))  # warm-up call, not timed
-    started, cpu_started = time.perf_counter(), time.process_time()
-    out = jax.block_until_ready(fn(jnp.int32(args.seed)))
-    seconds, cpu_seconds = time.perf_counter() - started, time.process_time() - cpu_started
+    out, seconds, cpu_seconds = tidy1.timed(lambda: jax.block_until_ready(fn(jnp.int32(args.seed))))
     last, tot, dec, h_sum = (np.asarray(x) for x in out)
     agent_steps = args.runs * (args.babbling + args.steps)
     if args.json:
-        print(json.dumps({"impl": "jax-mf", "seconds": seconds, "cpu_seconds": cpu_seconds, "agent_steps": agent_steps,
-                          "compile_s": compile_s, "reward_last500": float(last.mean())}))
+        tidy1.print_timing("jax-mf", seconds, cpu_seconds, agent_steps, last.mean(), compile_s=compile_s)
         return
     print(f"jax {jax.__version__} on {jax.devices()[0].platform} (compile {compile_s:.1f} s, not timed)")
     print(f"JAX MF (float32): {args.runs} runs x ({args.babbling} + {args.steps}) steps in {seconds:.2f} s"
@@ -151,10 +139,7 @@ def main():
         print(f"  mbmf: last 500 steps {ref.mean():.2f} (sd {ref.std():.2f}); total "
               f"{np.mean(table['total_reward']):.1f}; decisions {np.mean(table['decisions']):.0f}; "
               f"mean entropy {np.mean(table['mean_entropy_chosen']):.3f}")
-        v = tidy1.verdict(last.mean(), ref.mean())
-        print(f"  verdict: {v}")
-        if v.startswith("FAR"):
-            sys.exit(1)
+        tidy1.print_verdict(last.mean(), ref.mean())
 
 
 if __name__ == "__main__":

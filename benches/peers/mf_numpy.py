@@ -15,10 +15,6 @@ Reset lanes are masked, not compacted: their softmax and draw are computed and d
   python mf_numpy.py [--runs B] [--steps N] [--babbling N] [--seed S] [--check] [--json]
 """
 
-import argparse
-import json
-import sys
-import time
 
 import numpy as np
 
@@ -117,21 +113,12 @@ def simulate(n_runs, steps, babbling, seed, last=500):
 
 
 def main():
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--runs", type=int, default=512)
-    ap.add_argument("--steps", type=int, default=2000)
-    ap.add_argument("--babbling", type=int, default=1000)
-    ap.add_argument("--seed", type=int, default=1)
-    ap.add_argument("--check", action="store_true", help="also run mbmf on the same work and compare")
-    ap.add_argument("--json", action="store_true", help="print one JSON line of timing for run.py")
-    args = ap.parse_args()
-    started, cpu_started = time.perf_counter(), time.process_time()
-    last, tot, dec, mean_h = simulate(args.runs, args.steps, args.babbling, args.seed)
-    seconds, cpu_seconds = time.perf_counter() - started, time.process_time() - cpu_started
+    args = tidy1.arguments(__doc__, runs=512).parse_args()
+    out, seconds, cpu_seconds = tidy1.timed(lambda: simulate(args.runs, args.steps, args.babbling, args.seed))
+    last, tot, dec, mean_h = out
     agent_steps = args.runs * (args.babbling + args.steps)
     if args.json:
-        print(json.dumps({"impl": "numpy-mf", "seconds": seconds, "cpu_seconds": cpu_seconds, "agent_steps": agent_steps,
-                          "reward_last500": float(last.mean())}))
+        tidy1.print_timing("numpy-mf", seconds, cpu_seconds, agent_steps, last.mean())
         return
     nxt, goal, _ = tidy1.build()
     print(f"tidy1: {nxt.shape[0]} states, goal {goal}; {tidy1.check_against_authors_format(nxt, goal)}")
@@ -148,10 +135,7 @@ def main():
         ref_h = np.mean(table["mean_entropy_chosen"])
         print(f"  mbmf: last 500 steps {ref.mean():.2f} (sd {ref.std():.2f}); total "
               f"{np.mean(table['total_reward']):.1f}; decisions {ref_dec:.0f}; mean entropy {ref_h:.3f}")
-        v = tidy1.verdict(last.mean(), ref.mean())
-        print(f"  verdict: {v}")
-        if v.startswith("FAR"):
-            sys.exit(1)
+        tidy1.print_verdict(last.mean(), ref.mean())
 
 
 if __name__ == "__main__":

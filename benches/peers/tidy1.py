@@ -7,8 +7,11 @@ change nothing. State ids are breadth-first from the start (all cubes on the tab
 actions in index order, so the start is 0.
 """
 
+import argparse
 import json
 import os
+import sys
+import time
 from collections import deque
 
 import numpy as np
@@ -128,3 +131,37 @@ def verdict(peer, ref, tolerance=0.15):
     """'near' when the peer's mean is within `tolerance` (relative) of mbmf's."""
     rel = abs(peer - ref) / max(abs(ref), 1e-12)
     return ("near" if rel <= tolerance else "FAR") + f" ({100 * rel:.1f}% apart)"
+
+
+def arguments(description, runs):
+    """The command line every peer takes: --runs (default `runs`), --steps, --babbling, --seed,
+    --check and --json; a peer adds its own before parsing."""
+    ap = argparse.ArgumentParser(description=description, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--runs", type=int, default=runs)
+    ap.add_argument("--steps", type=int, default=2000)
+    ap.add_argument("--babbling", type=int, default=1000)
+    ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--check", action="store_true", help="also run mbmf on the same work and compare")
+    ap.add_argument("--json", action="store_true", help="print one JSON line of timing for run.py")
+    return ap
+
+
+def timed(work):
+    """`work()` with the wall-clock and CPU seconds it took: (result, seconds, cpu_seconds)."""
+    started, cpu_started = time.perf_counter(), time.process_time()
+    out = work()
+    return out, time.perf_counter() - started, time.process_time() - cpu_started
+
+
+def print_timing(impl, seconds, cpu_seconds, agent_steps, reward_last500, **extra):
+    """The JSON line run.py reads: the timing, any `extra` fields, the mean reward of the end."""
+    print(json.dumps({"impl": impl, "seconds": seconds, "cpu_seconds": cpu_seconds, "agent_steps": agent_steps,
+                      **extra, "reward_last500": float(reward_last500)}))
+
+
+def print_verdict(peer, ref):
+    """Prints how near the peer's mean is to mbmf's, and fails the process when it is far."""
+    v = verdict(peer, ref)
+    print(f"  verdict: {v}")
+    if v.startswith("FAR"):
+        sys.exit(1)
