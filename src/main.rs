@@ -15,7 +15,18 @@ use mbmf::{
 
 fn main() {
     install_panic_hook();
-    if let Err(failure) = cli::main_with_args(std::env::args_os()) {
+    use clap::Parser as _;
+    // Help and version requests print and exit 0; argument errors print clap's message (with
+    // its suggestion for a typo) and exit 2.
+    let parsed = match cli::Cli::try_parse_from(std::env::args_os()) {
+        Ok(parsed) => parsed,
+        Err(e) => {
+            let code = if e.use_stderr() { cli::EXIT_USAGE } else { 0 };
+            let _ = e.print();
+            std::process::exit(code);
+        }
+    };
+    if let Err(failure) = cli::execute(&parsed) {
         // writeln, not the panicking macro: a closed stderr must not turn an error into a panic.
         let _ = writeln!(std::io::stderr(), "error: {:#}", failure.error);
         std::process::exit(failure.code);

@@ -161,17 +161,8 @@ pub enum Command {
     Man(docs::ManArgs),
 }
 
-/// Parses the arguments and runs the verb. Help and version requests print and exit 0; argument
-/// errors print clap's message (with its suggestion for a typo) and exit 2.
-pub fn main_with_args(args: impl IntoIterator<Item = std::ffi::OsString>) -> Result<(), Failure> {
-    let cli = match Cli::try_parse_from(args) {
-        Ok(cli) => cli,
-        Err(e) => {
-            let code = if e.use_stderr() { EXIT_USAGE } else { 0 };
-            let _ = e.print();
-            std::process::exit(code);
-        }
-    };
+/// Runs the verb of parsed arguments.
+pub fn execute(cli: &Cli) -> Result<(), Failure> {
     if let Some(n) = cli.threads {
         rayon::ThreadPoolBuilder::new()
             .num_threads(n)
