@@ -76,7 +76,7 @@ fn learn(spec: &Spec) -> Learned {
             plan: None,
         };
         while view.cursor.t < total {
-            step(spec, &params, window_cap, &mut view);
+            step(spec, &params, &mut view);
         }
     }
     Learned {

@@ -96,12 +96,7 @@ impl Solo {
             series: &mut self.series,
             plan: None,
         };
-        step(
-            &self.spec,
-            &self.params,
-            self.params.window_n as usize,
-            &mut view,
-        );
+        step(&self.spec, &self.params, &mut view);
     }
 
     /// Makes `action` the MF expert's near-certain choice in `state` (Q gap of 1 at tau 0.02).

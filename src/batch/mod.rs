@@ -568,7 +568,6 @@ impl Batch {
     pub fn advance(&mut self, steps: u64) {
         let spec = Arc::clone(&self.spec);
         let spec: &Spec = &spec;
-        let window_cap = self.window_cap;
         let views = self.views();
         views
             .into_par_iter()
@@ -576,7 +575,7 @@ impl Batch {
             .for_each(|(params, mut view)| {
                 let started = Instant::now();
                 let end = view.cursor.t.saturating_add(steps);
-                step::run_until(spec, params, window_cap, &mut view, end);
+                step::run_until(spec, params, &mut view, end);
                 view.stats.wall_time_s += started.elapsed().as_secs_f64();
             });
     }
@@ -660,6 +659,7 @@ impl Batch {
                 visited: visited.next().expect("one row per run"),
                 bonus: bonus.next().expect("one row per run"),
                 model: Model {
+                    window_cap: self.window_cap,
                     ring: ring.next().expect("one row per run"),
                     ring_len: ring_len.next().expect("one row per run"),
                     ring_pos: ring_pos.next().expect("one row per run"),

@@ -25,9 +25,9 @@ use crate::schedule::{Action, HumanChange, Plan};
 /// Advances one run by one step: a babbling step while `cursor.t < babbling`, then an experiment
 /// step. At the end of babbling the environment is reset to an initial state (not a step).
 #[inline]
-pub fn step(spec: &Spec, params: &Params, window_cap: usize, run: &mut RunView<'_>) {
+pub fn step(spec: &Spec, params: &Params, run: &mut RunView<'_>) {
     let end = run.cursor.t + 1;
-    run_until(spec, params, window_cap, run, end);
+    run_until(spec, params, run, end);
 }
 
 /// Controller kinds as const-generic parameters (stable Rust has no enum const generics).
@@ -52,13 +52,7 @@ const fn controller(kind: u8) -> Controller {
 /// Advances one run until `cursor.t` reaches `end` (or the run ends): babbling, then the
 /// experiment, each as its own loop of a step compiled for the run's controller and for whether a
 /// human (or a schedule) can act at all, so none of that is branched on per step.
-pub(super) fn run_until(
-    spec: &Spec,
-    params: &Params,
-    window_cap: usize,
-    run: &mut RunView<'_>,
-    end: u64,
-) {
+pub(super) fn run_until(spec: &Spec, params: &Params, run: &mut RunView<'_>, end: u64) {
     // Without a schedule, a human that never interacts and the environment's own reward, no
     // human function can do anything: the steps skip them.
     let human = run.plan.is_some()
@@ -67,9 +61,9 @@ pub(super) fn run_until(
     // The tidy tasks' 7 actions get their own copy, whose rows have a length known at compile
     // time (loops unrolled, no remainder handling); other action counts share a generic one.
     if spec.n_actions == 7 {
-        by_kind::<7>(spec, params, window_cap, run, end, human);
+        by_kind::<7>(spec, params, run, end, human);
     } else {
-        by_kind::<0>(spec, params, window_cap, run, end, human);
+        by_kind::<0>(spec, params, run, end, human);
     }
 }
 
@@ -78,23 +72,22 @@ pub(super) fn run_until(
 fn by_kind<const NA: usize>(
     spec: &Spec,
     params: &Params,
-    window_cap: usize,
     run: &mut RunView<'_>,
     end: u64,
     human: bool,
 ) {
-    let (p, w) = (params, window_cap);
+    let p = params;
     match (params.controller, human) {
-        (Controller::Mf, false) => run_loop::<MF, false, NA>(spec, p, w, run, end),
-        (Controller::Mf, true) => run_loop::<MF, true, NA>(spec, p, w, run, end),
-        (Controller::Mb, false) => run_loop::<MB, false, NA>(spec, p, w, run, end),
-        (Controller::Mb, true) => run_loop::<MB, true, NA>(spec, p, w, run, end),
-        (Controller::Rnd, false) => run_loop::<RND, false, NA>(spec, p, w, run, end),
-        (Controller::Rnd, true) => run_loop::<RND, true, NA>(spec, p, w, run, end),
-        (Controller::Ec, false) => run_loop::<EC, false, NA>(spec, p, w, run, end),
-        (Controller::Ec, true) => run_loop::<EC, true, NA>(spec, p, w, run, end),
-        (Controller::Entropy, false) => run_loop::<ENTROPY, false, NA>(spec, p, w, run, end),
-        (Controller::Entropy, true) => run_loop::<ENTROPY, true, NA>(spec, p, w, run, end),
+        (Controller::Mf, false) => run_loop::<MF, false, NA>(spec, p, run, end),
+        (Controller::Mf, true) => run_loop::<MF, true, NA>(spec, p, run, end),
+        (Controller::Mb, false) => run_loop::<MB, false, NA>(spec, p, run, end),
+        (Controller::Mb, true) => run_loop::<MB, true, NA>(spec, p, run, end),
+        (Controller::Rnd, false) => run_loop::<RND, false, NA>(spec, p, run, end),
+        (Controller::Rnd, true) => run_loop::<RND, true, NA>(spec, p, run, end),
+        (Controller::Ec, false) => run_loop::<EC, false, NA>(spec, p, run, end),
+        (Controller::Ec, true) => run_loop::<EC, true, NA>(spec, p, run, end),
+        (Controller::Entropy, false) => run_loop::<ENTROPY, false, NA>(spec, p, run, end),
+        (Controller::Entropy, true) => run_loop::<ENTROPY, true, NA>(spec, p, run, end),
     }
 }
 
@@ -102,7 +95,6 @@ fn by_kind<const NA: usize>(
 fn run_loop<const KIND: u8, const HUMAN: bool, const NA: usize>(
     spec: &Spec,
     params: &Params,
-    window_cap: usize,
     run: &mut RunView<'_>,
     end: u64,
 ) {
@@ -111,7 +103,7 @@ fn run_loop<const KIND: u8, const HUMAN: bool, const NA: usize>(
     let babble_end = end.min(babbling);
     if run.cursor.t < babble_end {
         while run.cursor.t < babble_end {
-            one_step::<KIND, HUMAN, NA, true>(spec, params, window_cap, run, 0);
+            one_step::<KIND, HUMAN, NA, true>(spec, params, run, 0);
         }
         if run.cursor.t == babbling {
             // End of babbling: back to the start; a pending reset step is dropped (SPEC 7).
@@ -135,7 +127,7 @@ fn run_loop<const KIND: u8, const HUMAN: bool, const NA: usize>(
     let mut row_at = next_row(t_exp);
     while run.cursor.t < end {
         t_exp += 1;
-        one_step::<KIND, HUMAN, NA, false>(spec, params, window_cap, run, t_exp);
+        one_step::<KIND, HUMAN, NA, false>(spec, params, run, t_exp);
         if t_exp == row_at {
             record_checkpoint(run, t_exp);
             row_at = next_row(t_exp);
@@ -162,7 +154,6 @@ fn world<'s>(spec: &'s Spec, run: &RunView<'s>) -> &'s Spec {
 fn one_step<const KIND: u8, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
     spec: &Spec,
     params: &Params,
-    window_cap: usize,
     run: &mut RunView<'_>,
     t_exp: u32,
 ) {
@@ -183,7 +174,7 @@ fn one_step<const KIND: u8, const HUMAN: bool, const NA: usize, const BABBLING: 
         run.cursor.pending_reset = false;
         run.cursor.state = initial_state(spec, run.rng);
     } else {
-        act::<KIND, HUMAN, NA, BABBLING>(spec, params, window_cap, run, s, t_exp);
+        act::<KIND, HUMAN, NA, BABBLING>(spec, params, run, s, t_exp);
     }
 }
 
@@ -192,7 +183,6 @@ fn one_step<const KIND: u8, const HUMAN: bool, const NA: usize, const BABBLING: 
 fn act<const KIND: u8, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
     spec: &Spec,
     params: &Params,
-    window_cap: usize,
     run: &mut RunView<'_>,
     s: usize,
     t_exp: u32,
@@ -283,15 +273,8 @@ fn act<const KIND: u8, const HUMAN: bool, const NA: usize, const BABBLING: bool>
         }
     }
     if controller.runs_mb() {
-        run.model.learn(
-            window_cap,
-            params.window_n as usize,
-            s,
-            a,
-            next,
-            learned,
-            terminal,
-        );
+        run.model
+            .learn(params.window_n as usize, s, a, next, learned, terminal);
     }
 
     if !babbling {
