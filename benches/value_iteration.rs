@@ -14,7 +14,9 @@
 mod common;
 
 use criterion::{BatchSize, BenchmarkId, Criterion, Throughput};
-use mbmf::batch::{Checkpoint, Cursor, RunStats, RunView, checkpoint_count, run_rng, step};
+use mbmf::batch::{
+    Checkpoint, Cursor, RunStats, RunView, Settled, checkpoint_count, run_rng, step,
+};
 use mbmf::env::Spec;
 use mbmf::expert::mb::OwnedModel;
 use mbmf::params::{Controller, Params};
@@ -39,7 +41,7 @@ fn learn(spec: &Spec) -> Learned {
     let mut entropy_mb = vec![f64::NAN; n_s];
     let mut p_mf = vec![0.0; sa];
     let mut max_mf = vec![params.q_init; n_s];
-    let mut settled = vec![0; n_s];
+    let mut settled = vec![Settled::default(); n_s];
     let mut cost_mf = vec![0.0; n_s];
     let mut cost_mb = vec![0.0; n_s];
     let mut visited = vec![false; n_s];

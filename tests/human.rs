@@ -3,7 +3,9 @@
 
 use std::sync::Arc;
 
-use mbmf::batch::{Batch, Checkpoint, Cursor, RunConfig, RunStats, RunView, run_rng, step};
+use mbmf::batch::{
+    Batch, Checkpoint, Cursor, RunConfig, RunStats, RunView, Settled, run_rng, step,
+};
 use mbmf::env::NO_NUISANCE;
 use mbmf::env::tidy::{Place, TidyState, Variant, enumerate};
 use mbmf::env::{self, Spec};
@@ -26,7 +28,7 @@ struct Solo {
     entropy_mb: Vec<f64>,
     p_mf: Vec<f64>,
     max_mf: Vec<f64>,
-    settled: Vec<u8>,
+    settled: Vec<Settled>,
     cost_mf: Vec<f64>,
     cost_mb: Vec<f64>,
     visited: Vec<bool>,
@@ -53,7 +55,7 @@ impl Solo {
             entropy_mb: vec![f64::NAN; spec.n_states],
             p_mf: vec![0.0; sa],
             max_mf: vec![params.q_init; spec.n_states],
-            settled: vec![0; spec.n_states],
+            settled: vec![Settled::default(); spec.n_states],
             cost_mf: vec![0.0; spec.n_states],
             cost_mb: vec![0.0; spec.n_states],
             visited: vec![false; spec.n_states],
@@ -106,7 +108,7 @@ impl Solo {
             self.q_mf[state * a + b] = if b == action { 1.0 } else { 0.0 };
         }
         // The row changed behind the step's back: what was kept from it no longer holds.
-        self.settled[state] = 0;
+        self.settled[state] = Settled::default();
         self.max_mf[state] = 1.0;
     }
 

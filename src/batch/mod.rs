@@ -4,7 +4,10 @@
 //! Runs never share mutable data and each owns its random stream, seeded from (master seed, run
 //! index) only, so results do not depend on batch size, thread count or scheduling order.
 
+mod settled;
 mod step;
+
+pub use settled::Settled;
 
 use std::sync::Arc;
 use std::time::Instant;
@@ -125,23 +128,6 @@ impl Cursor {
     }
 }
 
-/// Flags, per state of a run without a human, of what a decision there may take from the
-/// previous one instead of computing it again (bit for bit the same). Without a human the
-/// softmax of an expert depends only on its Q row (the bonus term is 0, the temperature fixed).
-pub struct Settled;
-
-impl Settled {
-    /// The MF Q row has not changed since its softmax was last folded into the averaged
-    /// distribution (for an `mf` run, which keeps it, that softmax is in `p_mf`).
-    pub const SOFTMAX: u8 = 1;
-    /// That fold left the MF averaged distribution as it was, so folding again would too.
-    pub const AVERAGE: u8 = 2;
-    /// [`SOFTMAX`](Settled::SOFTMAX) for the MB expert (value iteration changed no value).
-    pub const MB_SOFTMAX: u8 = 4;
-    /// [`AVERAGE`](Settled::AVERAGE) for the MB expert.
-    pub const MB_AVERAGE: u8 = 8;
-}
-
 /// Number of checkpoint rows of a run.
 pub fn checkpoint_count(params: &Params) -> usize {
     if params.steps == 0 || params.checkpoint == 0 {
@@ -169,7 +155,7 @@ pub struct Batch {
     entropy_mb: Array2<f64>,
     p_mf: Array3<f64>,
     max_mf: Array2<f64>,
-    settled: Array2<u8>,
+    settled: Array2<Settled>,
     cost_mf: Array2<f64>,
     cost_mb: Array2<f64>,
     visited: Array2<bool>,
@@ -214,7 +200,7 @@ pub struct RunView<'a> {
     /// For an `mf` run without a human: the maximum of each state's MF Q row.
     pub max_mf: &'a mut [f64],
     /// For a run without a human: what still holds in each state ([`Settled`] flags).
-    pub settled: &'a mut [u8],
+    pub settled: &'a mut [Settled],
     /// MF per-state inference cost average.
     pub cost_mf: &'a mut [f64],
     /// MB per-state inference cost average.
@@ -356,7 +342,7 @@ impl Batch {
             entropy_mb: Array2::zeros((runs, mb_states)),
             p_mf: Array3::zeros((runs, kept_states, n_a)),
             max_mf: Array2::zeros((runs, kept_states)),
-            settled: Array2::zeros((runs, n_s)),
+            settled: Array2::from_elem((runs, n_s), Settled::default()),
             cost_mf: Array2::zeros((runs, n_s)),
             cost_mb: Array2::zeros((runs, n_s)),
             visited: Array2::from_elem((runs, n_s), false),
@@ -700,7 +686,7 @@ impl RunView<'_> {
         // whose MF table is there).
         let row = self.q_mf.get(..n_actions).unwrap_or(&[]);
         self.max_mf.fill(crate::expert::max_of(row));
-        self.settled.fill(0);
+        self.settled.fill(Settled::default());
         self.cost_mf.fill(0.0);
         self.cost_mb.fill(0.0);
         self.visited.fill(false);

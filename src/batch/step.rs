@@ -12,9 +12,10 @@
 
 use std::time::Instant;
 
+use super::settled::{Expert, Fold};
 use super::{Checkpoint, RunView, Settled, initial_state, uniform};
 use crate::env::Spec;
-use crate::expert::{draw, ema, ema_into, entropy_bits, max_of, mf, softmax_biased};
+use crate::expert::{draw, ema, entropy_bits, max_of, mf};
 use crate::human::{self, Encounter};
 use crate::meta;
 use crate::params::{
@@ -266,7 +267,7 @@ fn act<const KIND: u8, const HUMAN: bool, const NA: usize, const BABBLING: bool>
         );
         // A new value in the row makes what was kept from it stale.
         if !HUMAN && run.q_mf[sa].to_bits() != before.to_bits() {
-            run.settled[s] &= !(Settled::SOFTMAX | Settled::AVERAGE);
+            run.settled[s].q_changed(Expert::Mf);
             if KIND == MF {
                 run.max_mf[s] = max_of(&run.q_mf[s * n_a..(s + 1) * n_a]);
             }
@@ -318,7 +319,7 @@ fn encounter<'r>(
 /// What a decision computes from rows that have not changed since the last decision in the
 /// state is taken from then, bit for bit the same: the entropies of the averaged distributions
 /// (kept per state until a moving average changes the row) and, without a human, each expert's
-/// softmax and moving average while its Q row is unchanged (see [`Settled`] and [`Fold`]; an
+/// softmax and moving average while its Q row is unchanged (see [`Settled`]; an
 /// `mf` run keeps the softmax itself). Once Q-learning has converged in a state, none of them
 /// changes: about 19 decisions in 20 of a 3,000-step tidy1 `mf` run.
 #[inline(always)]
@@ -390,7 +391,7 @@ fn decide<const KIND: u8, const HUMAN: bool, const NA: usize, const BABBLING: bo
         }
         if !HUMAN && report.changed {
             for flags in run.settled.iter_mut() {
-                *flags &= !(Settled::MB_SOFTMAX | Settled::MB_AVERAGE);
+                flags.q_changed(Expert::Mb);
             }
         }
     }
@@ -411,7 +412,7 @@ fn decide<const KIND: u8, const HUMAN: bool, const NA: usize, const BABBLING: bo
         scratch_mf
     };
     // Without a human, flags say which folds would change nothing.
-    let mut none = 0;
+    let mut none = Settled::default();
     let settled = if HUMAN {
         &mut none
     } else {
@@ -421,43 +422,37 @@ fn decide<const KIND: u8, const HUMAN: bool, const NA: usize, const BABBLING: bo
     let (tau, alpha) = (params.tau, params.filter_alpha);
     if controller.runs_mf() {
         let fold = Fold {
-            softmax: Settled::SOFTMAX,
-            average: Settled::AVERAGE,
+            expert: Expert::Mf,
             drawn: !choice.use_mb,
             kept: keeps_softmax,
-        };
-        let avg = &mut run.pavg_mf[row.clone()];
-        let q = &run.q_mf[row.clone()];
-        fold.run(
-            q,
+            q: &run.q_mf[row.clone()],
             g,
             bonus,
             tau,
-            p_mf,
-            avg,
             alpha,
-            settled,
+        };
+        settled.fold(
+            &fold,
+            p_mf,
+            &mut run.pavg_mf[row.clone()],
             &mut run.entropy_mf[s],
         );
     }
     if controller.runs_mb() {
         let fold = Fold {
-            softmax: Settled::MB_SOFTMAX,
-            average: Settled::MB_AVERAGE,
+            expert: Expert::Mb,
             drawn: choice.use_mb,
             kept: false,
-        };
-        let avg = &mut run.pavg_mb[row.clone()];
-        let q = &run.q_mb[row.clone()];
-        fold.run(
-            q,
+            q: &run.q_mb[row.clone()],
             g,
             bonus,
             tau,
-            p_mb,
-            avg,
             alpha,
-            settled,
+        };
+        settled.fold(
+            &fold,
+            p_mb,
+            &mut run.pavg_mb[row.clone()],
             &mut run.entropy_mb[s],
         );
     }
@@ -477,55 +472,6 @@ fn decide<const KIND: u8, const HUMAN: bool, const NA: usize, const BABBLING: bo
         run.cursor.window_decisions += 1;
     }
     a
-}
-
-/// One expert's step 5 in a state: its softmax, and the fold of that softmax into its averaged
-/// distribution, each skipped where the state's [`Settled`] flags (`softmax` and `average`, this
-/// expert's bits) say it would give what it gave last time.
-struct Fold {
-    softmax: u8,
-    average: u8,
-    /// The action is drawn from this expert's softmax, so it is needed whatever the flags say.
-    drawn: bool,
-    /// The softmax is written where it stays between decisions (an `mf` run's `p_mf`), so while
-    /// the row is unchanged it is there already.
-    kept: bool,
-}
-
-impl Fold {
-    /// Writes the softmax of `q` (with bonus `bonus * g`, temperature `tau`) into `p` when it is
-    /// needed, folds it into `avg` unless that is known to change nothing, and updates `settled`;
-    /// a changed `avg` makes its kept `entropy` unknown (NaN). Returns whether `avg` changed.
-    #[allow(clippy::too_many_arguments)]
-    #[inline(always)]
-    fn run(
-        &self,
-        q: &[f64],
-        g: &[u8],
-        bonus: f64,
-        tau: f64,
-        p: &mut [f64],
-        avg: &mut [f64],
-        alpha: f64,
-        settled: &mut u8,
-        entropy: &mut f64,
-    ) -> bool {
-        let both = self.softmax | self.average;
-        let unchanged = *settled & both == both;
-        let fresh = self.kept && *settled & self.softmax != 0;
-        if !fresh && (self.drawn || !unchanged) {
-            softmax_biased(q, g, bonus, tau, p);
-        }
-        if unchanged {
-            return false;
-        }
-        let changed = ema_into(avg, p, alpha);
-        *settled = (*settled & !both) | if changed { self.softmax } else { both };
-        if changed {
-            *entropy = f64::NAN;
-        }
-        changed
-    }
 }
 
 /// The entropy in bits of `row`, an averaged distribution, from `kept` unless that is NaN (not
@@ -605,109 +551,4 @@ fn record_checkpoint(run: &mut RunView<'_>, t_exp: u32) {
     cursor.checkpoints_written += 1;
     cursor.window_p_mb = 0.0;
     cursor.window_decisions = 0;
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    const MF_BITS: u8 = Settled::SOFTMAX | Settled::AVERAGE;
-    const G: [u8; 3] = [0; 3];
-
-    /// One state's MF softmax buffer, averaged distribution, flags and kept entropy.
-    struct State {
-        p: [f64; 3],
-        avg: [f64; 3],
-        settled: u8,
-        entropy: f64,
-    }
-
-    impl State {
-        /// [`Fold::run`] of the MF expert on row `q` (temperature 0.5, alpha 0.6, no bonus).
-        fn fold(&mut self, q: &[f64; 3], drawn: bool, kept: bool) -> bool {
-            let fold = Fold {
-                softmax: Settled::SOFTMAX,
-                average: Settled::AVERAGE,
-                drawn,
-                kept,
-            };
-            let (p, avg) = (&mut self.p, &mut self.avg);
-            fold.run(
-                q,
-                &G,
-                0.0,
-                0.5,
-                p,
-                avg,
-                0.6,
-                &mut self.settled,
-                &mut self.entropy,
-            )
-        }
-    }
-
-    fn softmax(q: &[f64; 3]) -> [f64; 3] {
-        let mut p = [0.0; 3];
-        softmax_biased(q, &G, 0.0, 0.5, &mut p);
-        p
-    }
-
-    #[test]
-    fn a_settled_fold_is_skipped_and_its_softmax_only_computed_when_drawn() {
-        let q = [0.0, 1.0, 0.5];
-        // A kept entropy of the average; folding that moves the average makes it unknown.
-        let mut st = State {
-            p: [0.0; 3],
-            avg: [1.0 / 3.0; 3],
-            settled: 0,
-            entropy: 1.0,
-        };
-        // The first fold moves the average: only SOFTMAX is set, and it says so.
-        assert!(st.fold(&q, false, false));
-        assert_eq!(st.settled, Settled::SOFTMAX);
-        assert!(st.entropy.is_nan());
-        assert_eq!(st.p, softmax(&q));
-        // Folding the same softmax converges (the moving average reaches a fixed point).
-        let folds = (1..200).find(|_| {
-            st.fold(&q, false, false);
-            st.settled & MF_BITS == MF_BITS
-        });
-        assert!(folds.expect("the average settles") > 1);
-        let settled_avg = st.avg;
-        st.entropy = 2.0;
-        // Settled and not drawn: neither the softmax nor the average (nor its entropy) is touched.
-        st.p = [f64::NAN; 3];
-        assert!(!st.fold(&q, false, false));
-        assert!(st.p.iter().all(|x| x.is_nan()));
-        assert_eq!((st.avg, st.entropy), (settled_avg, 2.0));
-        // Drawn from: the softmax is computed again (bit for bit the same), the fold still not.
-        assert!(!st.fold(&q, true, false));
-        assert_eq!(st.p, softmax(&q));
-        assert_eq!(st.avg, settled_avg);
-        // Kept where it stays (an mf run's p_mf): not even the drawn softmax is recomputed.
-        st.p = [f64::NAN; 3];
-        assert!(!st.fold(&q, true, true));
-        assert!(st.p.iter().all(|x| x.is_nan()));
-        // A changed row (learning clears the flags) is computed and folded again.
-        st.settled &= !MF_BITS;
-        let q2 = [2.0, 1.0, 0.5];
-        assert!(st.fold(&q2, false, false));
-        assert_eq!(st.p, softmax(&q2));
-        assert_eq!(st.settled & MF_BITS, Settled::SOFTMAX);
-    }
-
-    #[test]
-    fn the_other_expert_s_flags_are_left_alone() {
-        let mut st = State {
-            p: [0.0; 3],
-            avg: [0.5, 0.25, 0.25],
-            settled: Settled::MB_SOFTMAX | Settled::MB_AVERAGE,
-            entropy: 0.0,
-        };
-        st.fold(&[0.3, 0.1, 0.0], false, false);
-        assert_eq!(
-            st.settled,
-            Settled::MB_SOFTMAX | Settled::MB_AVERAGE | Settled::SOFTMAX
-        );
-    }
 }
