@@ -69,6 +69,8 @@ fn learn(spec: &Spec) -> Learned {
             cost_mb: &mut cost_mb,
             visited: &mut visited,
             bonus: &mut bonus,
+            arbiter_run: &mut [],
+            arbiter_pairs: &mut [],
             model: model.view(),
             scratch: &mut scratch,
             rng: &mut rng,

@@ -7,6 +7,7 @@
 #![allow(clippy::too_many_arguments)]
 
 pub mod analysis;
+pub mod arbiter;
 pub mod atomic;
 pub mod batch;
 pub mod bench;

@@ -90,6 +90,8 @@ impl Solo {
             cost_mb: &mut self.cost_mb,
             visited: &mut self.visited,
             bonus: &mut self.bonus,
+            arbiter_run: &mut [],
+            arbiter_pairs: &mut [],
             model: self.model.view(),
             scratch: &mut self.scratch,
             rng: &mut self.rng,

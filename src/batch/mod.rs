@@ -160,6 +160,8 @@ pub struct Batch {
     cost_mb: Array2<f64>,
     visited: Array2<bool>,
     bonus: Array3<u8>,
+    arbiter_run: Array2<f64>,
+    arbiter_pairs: Array2<f64>,
     ring: Array2<u16>,
     ring_len: Array2<u16>,
     ring_pos: Array2<u16>,
@@ -209,6 +211,10 @@ pub struct RunView<'a> {
     pub visited: &'a mut [bool],
     /// G(s, a) of Eq. 8, `[state, action]`.
     pub bonus: &'a mut [u8],
+    /// The arbitration rule's per-run scalars ([`crate::arbiter::Own::run`]).
+    pub arbiter_run: &'a mut [f64],
+    /// The arbitration rule's per-run `[state, action]` tables ([`crate::arbiter::Own::pairs`]).
+    pub arbiter_pairs: &'a mut [f64],
     /// The MB expert's learned model.
     pub model: Model<'a>,
     /// 2 |A| values of scratch space for the two experts' distributions.
@@ -305,7 +311,18 @@ impl Batch {
         let mb_states = states_if_any(Controller::runs_mb);
         // Only `mf` runs keep their softmax between decisions (two-expert runs would outgrow
         // 64 KiB of state per tidy run with it).
-        let kept_states = states_if_any(|c| c == Controller::Mf);
+        let kept_states = states_if_any(|c| c.runs_mf() && !c.runs_mb());
+        // The arbitration rules' own state, sized for the most demanding rule of the batch.
+        let arbiter_scalars = configs
+            .iter()
+            .map(|c| c.params.controller.run_scalars(&c.params))
+            .max()
+            .unwrap_or(0);
+        let arbiter_tables = configs
+            .iter()
+            .map(|c| c.params.controller.pair_tables(&c.params))
+            .max()
+            .unwrap_or(0);
         let (mb_pairs, n_outcomes) = if mb_states > 0 {
             (n_s * n_a, obs.len())
         } else {
@@ -347,6 +364,8 @@ impl Batch {
             cost_mb: Array2::zeros((runs, n_s)),
             visited: Array2::from_elem((runs, n_s), false),
             bonus: Array3::zeros((runs, n_s, n_a)),
+            arbiter_run: Array2::zeros((runs, arbiter_scalars)),
+            arbiter_pairs: Array2::zeros((runs, arbiter_tables * n_s * n_a)),
             ring: Array2::zeros((runs, mb_pairs * window_cap)),
             ring_len: Array2::zeros((runs, mb_pairs)),
             ring_pos: Array2::zeros((runs, mb_pairs)),
@@ -418,6 +437,8 @@ impl Batch {
             ("cost_mb", bytes(&self.cost_mb)),
             ("visited", bytes(&self.visited)),
             ("bonus", bytes(&self.bonus)),
+            ("arbiter_run", bytes(&self.arbiter_run)),
+            ("arbiter_pairs", bytes(&self.arbiter_pairs)),
             ("ring", bytes(&self.ring)),
             ("ring_len", bytes(&self.ring_len)),
             ("ring_pos", bytes(&self.ring_pos)),
@@ -594,6 +615,14 @@ impl Batch {
         let mut cost_mb = rows(self.cost_mb.as_slice_mut().expect("standard layout"), runs);
         let mut visited = rows(self.visited.as_slice_mut().expect("standard layout"), runs);
         let mut bonus = rows(self.bonus.as_slice_mut().expect("standard layout"), runs);
+        let mut arbiter_run = rows(
+            self.arbiter_run.as_slice_mut().expect("standard layout"),
+            runs,
+        );
+        let mut arbiter_pairs = rows(
+            self.arbiter_pairs.as_slice_mut().expect("standard layout"),
+            runs,
+        );
         let mut ring = rows(self.ring.as_slice_mut().expect("standard layout"), runs);
         let mut ring_len = rows(self.ring_len.as_slice_mut().expect("standard layout"), runs);
         let mut ring_pos = rows(self.ring_pos.as_slice_mut().expect("standard layout"), runs);
@@ -644,6 +673,8 @@ impl Batch {
                 cost_mb: cost_mb.next().expect("one row per run"),
                 visited: visited.next().expect("one row per run"),
                 bonus: bonus.next().expect("one row per run"),
+                arbiter_run: arbiter_run.next().expect("one row per run"),
+                arbiter_pairs: arbiter_pairs.next().expect("one row per run"),
                 model: Model {
                     window_cap: self.window_cap,
                     ring: ring.next().expect("one row per run"),
@@ -691,6 +722,11 @@ impl RunView<'_> {
         self.cost_mb.fill(0.0);
         self.visited.fill(false);
         self.bonus.fill(0);
+        let mut own = crate::arbiter::Own {
+            run: self.arbiter_run,
+            pairs: self.arbiter_pairs,
+        };
+        crate::arbiter::start(params.controller, params, &mut own);
         self.model.clear();
         self.scratch.fill(0.0);
     }

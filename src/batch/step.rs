@@ -14,12 +14,12 @@ use std::time::Instant;
 
 use super::settled::{Expert, Fold};
 use super::{Checkpoint, RunView, Settled, initial_state, uniform};
+use crate::arbiter::{self, Arbiter, Inputs, Own, Transition, Visit};
 use crate::env::Spec;
-use crate::expert::{draw, ema, entropy_bits, max_of, mf};
+use crate::expert::{draw, ema, max_of, mf};
 use crate::human::{self, Encounter};
-use crate::meta;
 use crate::params::{
-    CongratulationEffect, Controller, CostModel, HumanParams, Interaction, Params, RewardSource,
+    CongratulationEffect, CostModel, HumanParams, Interaction, Params, RewardSource,
 };
 use crate::schedule::{Action, HumanChange, Plan};
 
@@ -31,25 +31,6 @@ pub fn step(spec: &Spec, params: &Params, run: &mut RunView<'_>) {
     run_until(spec, params, run, end);
 }
 
-/// Controller kinds as const-generic parameters (stable Rust has no enum const generics).
-const MF: u8 = 0;
-const MB: u8 = 1;
-const RND: u8 = 2;
-const EC: u8 = 3;
-const ENTROPY: u8 = 4;
-
-/// The controller a const-generic kind stands for; folded at compile time.
-#[inline(always)]
-const fn controller(kind: u8) -> Controller {
-    match kind {
-        MF => Controller::Mf,
-        MB => Controller::Mb,
-        RND => Controller::Rnd,
-        EC => Controller::Ec,
-        _ => Controller::Entropy,
-    }
-}
-
 /// Advances one run until `cursor.t` reaches `end` (or the run ends): babbling, then the
 /// experiment, each as its own loop of a step compiled for the run's controller and for whether a
 /// human (or a schedule) can act at all, so none of that is branched on per step.
@@ -59,41 +40,51 @@ pub(super) fn run_until(spec: &Spec, params: &Params, run: &mut RunView<'_>, end
     let human = run.plan.is_some()
         || params.human.interaction != Interaction::None
         || params.reward_source != RewardSource::Environment;
-    // The tidy tasks' 7 actions get their own copy, whose rows have a length known at compile
-    // time (loops unrolled, no remainder handling); other action counts share a generic one.
-    if spec.n_actions == 7 {
-        by_kind::<7>(spec, params, run, end, human);
-    } else {
-        by_kind::<0>(spec, params, run, end, human);
-    }
+    let code = Loop {
+        spec,
+        params,
+        run,
+        end,
+        human,
+    };
+    arbiter::dispatch(params.controller, code);
 }
 
-/// [`run_until`] for `NA` actions (0: read from the spec): the controller and human mode.
-#[inline(always)]
-fn by_kind<const NA: usize>(
-    spec: &Spec,
-    params: &Params,
-    run: &mut RunView<'_>,
+/// [`run_until`]'s arguments, waiting for the run's arbitration rule.
+struct Loop<'r, 'v> {
+    spec: &'r Spec,
+    params: &'r Params,
+    run: &'r mut RunView<'v>,
     end: u64,
     human: bool,
-) {
-    let p = params;
-    match (params.controller, human) {
-        (Controller::Mf, false) => run_loop::<MF, false, NA>(spec, p, run, end),
-        (Controller::Mf, true) => run_loop::<MF, true, NA>(spec, p, run, end),
-        (Controller::Mb, false) => run_loop::<MB, false, NA>(spec, p, run, end),
-        (Controller::Mb, true) => run_loop::<MB, true, NA>(spec, p, run, end),
-        (Controller::Rnd, false) => run_loop::<RND, false, NA>(spec, p, run, end),
-        (Controller::Rnd, true) => run_loop::<RND, true, NA>(spec, p, run, end),
-        (Controller::Ec, false) => run_loop::<EC, false, NA>(spec, p, run, end),
-        (Controller::Ec, true) => run_loop::<EC, true, NA>(spec, p, run, end),
-        (Controller::Entropy, false) => run_loop::<ENTROPY, false, NA>(spec, p, run, end),
-        (Controller::Entropy, true) => run_loop::<ENTROPY, true, NA>(spec, p, run, end),
+}
+
+impl Visit for Loop<'_, '_> {
+    type Output = ();
+
+    /// The loop for rule `A`, the human mode and the action count. The tidy tasks' 7 actions
+    /// get their own copy, whose rows have a length known at compile time (loops unrolled, no
+    /// remainder handling); other action counts share a generic one (`NA` 0: read from the spec).
+    #[inline(always)]
+    fn visit<A: Arbiter>(self) {
+        let Loop {
+            spec,
+            params: p,
+            run,
+            end,
+            human,
+        } = self;
+        match (spec.n_actions == 7, human) {
+            (true, false) => run_loop::<A, false, 7>(spec, p, run, end),
+            (true, true) => run_loop::<A, true, 7>(spec, p, run, end),
+            (false, false) => run_loop::<A, false, 0>(spec, p, run, end),
+            (false, true) => run_loop::<A, true, 0>(spec, p, run, end),
+        }
     }
 }
 
-/// [`run_until`] for one controller kind and human mode.
-fn run_loop<const KIND: u8, const HUMAN: bool, const NA: usize>(
+/// [`run_until`] for one arbitration rule and human mode.
+fn run_loop<A: Arbiter, const HUMAN: bool, const NA: usize>(
     spec: &Spec,
     params: &Params,
     run: &mut RunView<'_>,
@@ -104,7 +95,7 @@ fn run_loop<const KIND: u8, const HUMAN: bool, const NA: usize>(
     let babble_end = end.min(babbling);
     if run.cursor.t < babble_end {
         while run.cursor.t < babble_end {
-            one_step::<KIND, HUMAN, NA, true>(spec, params, run, 0);
+            one_step::<A, HUMAN, NA, true>(spec, params, run, 0);
         }
         if run.cursor.t == babbling {
             // End of babbling: back to the start; a pending reset step is dropped (SPEC 7).
@@ -128,7 +119,7 @@ fn run_loop<const KIND: u8, const HUMAN: bool, const NA: usize>(
     let mut row_at = next_row(t_exp);
     while run.cursor.t < end {
         t_exp += 1;
-        one_step::<KIND, HUMAN, NA, false>(spec, params, run, t_exp);
+        one_step::<A, HUMAN, NA, false>(spec, params, run, t_exp);
         if t_exp == row_at {
             record_checkpoint(run, t_exp);
             row_at = next_row(t_exp);
@@ -152,7 +143,7 @@ fn world<'s>(spec: &'s Spec, run: &RunView<'s>) -> &'s Spec {
 
 /// One step (SPEC 3.4) at experiment step `t_exp` (0 while babbling).
 #[inline(always)]
-fn one_step<const KIND: u8, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
+fn one_step<A: Arbiter, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
     spec: &Spec,
     params: &Params,
     run: &mut RunView<'_>,
@@ -175,13 +166,13 @@ fn one_step<const KIND: u8, const HUMAN: bool, const NA: usize, const BABBLING: 
         run.cursor.pending_reset = false;
         run.cursor.state = initial_state(spec, run.rng);
     } else {
-        act::<KIND, HUMAN, NA, BABBLING>(spec, params, run, s, t_exp);
+        act::<A, HUMAN, NA, BABBLING>(spec, params, run, s, t_exp);
     }
 }
 
 /// Steps 2 to 8 of SPEC 3.4 in a non-goal state.
 #[inline(always)]
-fn act<const KIND: u8, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
+fn act<A: Arbiter, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
     spec: &Spec,
     params: &Params,
     run: &mut RunView<'_>,
@@ -189,7 +180,6 @@ fn act<const KIND: u8, const HUMAN: bool, const NA: usize, const BABBLING: bool>
     t_exp: u32,
 ) {
     let babbling = BABBLING;
-    let controller = controller(KIND);
     let n_a = actions::<NA>(spec);
     let human = run.cursor.human;
     let human = &human;
@@ -203,7 +193,7 @@ fn act<const KIND: u8, const HUMAN: bool, const NA: usize, const BABBLING: bool>
     };
     let a = match action {
         Some(a) => a,
-        None => decide::<KIND, HUMAN, NA, BABBLING>(spec, params, run, s),
+        None => decide::<A, HUMAN, NA, BABBLING>(spec, params, run, s),
     };
 
     // 6. Environment.
@@ -244,12 +234,26 @@ fn act<const KIND: u8, const HUMAN: bool, const NA: usize, const BABBLING: bool>
     let learned = if shaped { reward + human.zeta } else { reward };
     run.bonus[sa] = if shaped { 0 } else { g };
 
-    // 8. Learning, by every expert the controller runs. The arrival is terminal when it is the
+    // 8. Learning, by every expert the rule runs (after the rule has seen the transition). The arrival is terminal when it is the
     // goal at this time (SPEC 10): both experts learn that from the transition itself.
     run.cursor.pending_reset = terminal;
-    if controller.runs_mf() {
+    if A::OBSERVES {
+        let t = Transition {
+            s,
+            a,
+            r: learned,
+            next,
+            terminal,
+        };
+        let mut own = Own {
+            run: run.arbiter_run,
+            pairs: run.arbiter_pairs,
+        };
+        A::observe(params, &mut own, &t, run.q_mf);
+    }
+    if A::RUNS_MF {
         // An `mf` run without a human keeps each Q row's maximum; other runs read the row.
-        let future = match (KIND == MF && !HUMAN, terminal) {
+        let future = match (mf_alone::<A>() && !HUMAN, terminal) {
             (_, true) => 0.0,
             (true, false) => run.max_mf[next],
             (false, false) => mf::future(run.q_mf, n_a, next, false),
@@ -268,12 +272,12 @@ fn act<const KIND: u8, const HUMAN: bool, const NA: usize, const BABBLING: bool>
         // A new value in the row makes what was kept from it stale.
         if !HUMAN && run.q_mf[sa].to_bits() != before.to_bits() {
             run.settled[s].q_changed(Expert::Mf);
-            if KIND == MF {
+            if mf_alone::<A>() {
                 run.max_mf[s] = max_of(&run.q_mf[s * n_a..(s + 1) * n_a]);
             }
         }
     }
-    if controller.runs_mb() {
+    if A::RUNS_MB {
         run.model
             .learn(params.window_n as usize, s, a, next, learned, terminal);
     }
@@ -323,7 +327,7 @@ fn encounter<'r>(
 /// `mf` run keeps the softmax itself). Once Q-learning has converged in a state, none of them
 /// changes: about 19 decisions in 20 of a 3,000-step tidy1 `mf` run.
 #[inline(always)]
-fn decide<const KIND: u8, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
+fn decide<A: Arbiter, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
     spec: &Spec,
     params: &Params,
     run: &mut RunView<'_>,
@@ -332,33 +336,36 @@ fn decide<const KIND: u8, const HUMAN: bool, const NA: usize, const BABBLING: bo
     let babbling = BABBLING;
     let n_a = actions::<NA>(spec);
     let row = s * n_a..(s + 1) * n_a;
-    let controller = controller(KIND);
 
-    // 3. Selection, from what earlier visits stored.
-    let rng = &mut *run.rng;
-    // The batch may hold no tables for an expert the controller does not run: each is indexed
-    // only when the controller asks for its entropy.
-    let (pavg_mf, pavg_mb) = (&*run.pavg_mf, &*run.pavg_mb);
-    let (entropy_mf, entropy_mb) = (&mut *run.entropy_mf, &mut *run.entropy_mb);
-    let choice = meta::choose(
+    // 3. Selection, from what earlier visits stored. The batch may hold no tables for an expert
+    // the rule does not run: each is indexed only when the rule asks for its entropy.
+    let mut inputs = Inputs {
         params,
-        controller,
-        n_a,
-        || entropy_bits_kept(&mut entropy_mf[s], &pavg_mf[row.clone()]),
-        || entropy_bits_kept(&mut entropy_mb[s], &pavg_mb[row.clone()]),
-        run.cost_mf[s],
-        run.cost_mb[s],
-        || uniform(rng),
-    );
+        n_actions: n_a,
+        state: s,
+        cost_mf: run.cost_mf[s],
+        cost_mb: run.cost_mb[s],
+        own: Own {
+            run: run.arbiter_run,
+            pairs: run.arbiter_pairs,
+        },
+        row: row.clone(),
+        pavg_mf: run.pavg_mf,
+        pavg_mb: run.pavg_mb,
+        entropy_mf: run.entropy_mf,
+        entropy_mb: run.entropy_mb,
+        rng: run.rng,
+    };
+    let choice = A::choose(&mut inputs);
 
     // 4. Inference: the chosen expert, and both at a first decision of a two-expert controller.
     let first = !run.visited[s];
     run.visited[s] = true;
-    let both = first && controller.is_dual();
+    let both = first && A::FIRST_DECISION_BOTH;
     let wallclock = params.cost_model == CostModel::Wallclock;
     let mut cost_mf = 0.0;
     let mut cost_mb = 0.0;
-    if controller.runs_mf() && (!choice.use_mb || both) {
+    if A::RUNS_MF && (!choice.use_mb || both) {
         let started = wallclock.then(Instant::now);
         // MF inference is reading its row, which the softmax below does.
         std::hint::black_box(&run.q_mf[row.clone()]);
@@ -368,7 +375,7 @@ fn decide<const KIND: u8, const HUMAN: bool, const NA: usize, const BABBLING: bo
         };
         run.cost_mf[s] = ema(run.cost_mf[s], cost_mf, params.filter_alpha);
     }
-    if controller.runs_mb() && (choice.use_mb || both) {
+    if A::RUNS_MB && (choice.use_mb || both) {
         let started = wallclock.then(Instant::now);
         // Only value iteration writes the MB's Q table, so its cached row maxima stay valid.
         let report = run.model.value_iteration_cached(
@@ -396,7 +403,7 @@ fn decide<const KIND: u8, const HUMAN: bool, const NA: usize, const BABBLING: bo
         }
     }
 
-    // 5. Decision: each expert the controller runs computes its (biased) softmax and folds it in.
+    // 5. Decision: each expert the rule runs computes its (biased) softmax and folds it in.
     let bonus = if HUMAN {
         human::bonus_weight(&run.cursor.human, params.congratulation_effect)
     } else {
@@ -404,7 +411,7 @@ fn decide<const KIND: u8, const HUMAN: bool, const NA: usize, const BABBLING: bo
     };
     // An `mf` run without a human keeps its softmax of each state in `p_mf`; other runs compute
     // theirs into scratch space.
-    let keeps_softmax = KIND == MF && !HUMAN;
+    let keeps_softmax = mf_alone::<A>() && !HUMAN;
     let (scratch_mf, p_mb) = run.scratch.split_at_mut(n_a);
     let p_mf = if keeps_softmax {
         &mut run.p_mf[row.clone()]
@@ -420,7 +427,7 @@ fn decide<const KIND: u8, const HUMAN: bool, const NA: usize, const BABBLING: bo
     };
     let g = &run.bonus[row.clone()];
     let (tau, alpha) = (params.tau, params.filter_alpha);
-    if controller.runs_mf() {
+    if A::RUNS_MF {
         let fold = Fold {
             expert: Expert::Mf,
             drawn: !choice.use_mb,
@@ -438,7 +445,7 @@ fn decide<const KIND: u8, const HUMAN: bool, const NA: usize, const BABBLING: bo
             &mut run.entropy_mf[s],
         );
     }
-    if controller.runs_mb() {
+    if A::RUNS_MB {
         let fold = Fold {
             expert: Expert::Mb,
             drawn: choice.use_mb,
@@ -474,14 +481,11 @@ fn decide<const KIND: u8, const HUMAN: bool, const NA: usize, const BABBLING: bo
     a
 }
 
-/// The entropy in bits of `row`, an averaged distribution, from `kept` unless that is NaN (not
-/// known since the row last changed), in which case it is computed and kept.
+/// Whether rule `A` runs the MF expert alone: such a run keeps each state's MF softmax and Q row
+/// maximum between decisions (the batch holds those tables for such runs only).
 #[inline(always)]
-fn entropy_bits_kept(kept: &mut f64, row: &[f64]) -> f64 {
-    if kept.is_nan() {
-        *kept = entropy_bits(row);
-    }
-    *kept
+const fn mf_alone<A: Arbiter>() -> bool {
+    A::RUNS_MF && !A::RUNS_MB
 }
 
 /// Applies the actions of `plan` due at experiment step `t_exp` (none while babbling), in order.
