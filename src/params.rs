@@ -339,6 +339,8 @@ registry::registry! {
         "how a congratulation acts: bias (Eq. 8) or reward shaping (SPEC 11.3)";
     flag boxes: Boxes = Boxes::RGB,
         "tidy1 box assignment at the start: position i gives cube i's box (rgb by default)";
+    flag w_mb: f64 = 0.5, "P(MB) of the fixed controller" ("probability"),
+        accepts "a weight in [0, 1]" if |x| (0.0..=1.0).contains(&x);
 }
 
 /// tidy1's box assignments as sweep files and flags name them: permutations of `rgb`, position

@@ -256,6 +256,7 @@ arbiters! {
     Rnd => "rnd", rnd::Rnd, "MF or MB with probability 1/2 each.";
     Ec => "ec", ec::Ec, "Entropy and cost (Eqs. 6–7): the paper's coordination.";
     Entropy => "entropy", entropy::Entropy, "Eq. 6 without the cost term.";
+    Fixed => "fixed", fixed::Fixed, "MB with the constant probability w_mb (SPEC 12.2).";
 }
 
 /// Start of every rule's state in one run: declared sizes zeroed, then the rule's own start.
