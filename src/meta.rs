@@ -157,34 +157,14 @@ mod tests {
             0.9
         };
         // P(MB) does not matter to argmax, only the order of the values.
-        assert!(pick(
-            Selection::Argmax,
-            0.0,
-            Some(Ordering::Greater),
-            draw
-        ));
-        assert!(!pick(
-            Selection::Argmax,
-            1.0,
-            Some(Ordering::Less),
-            draw
-        ));
+        assert!(pick(Selection::Argmax, 0.0, Some(Ordering::Greater), draw));
+        assert!(!pick(Selection::Argmax, 1.0, Some(Ordering::Less), draw));
         assert_eq!(draws.get(), 0);
         // A tie draws: 0.9 is not below 1/2, so MF.
-        assert!(!pick(
-            Selection::Argmax,
-            0.5,
-            Some(Ordering::Equal),
-            draw
-        ));
+        assert!(!pick(Selection::Argmax, 0.5, Some(Ordering::Equal), draw));
         assert_eq!(draws.get(), 1);
         // Softmax selection always draws, against P(MB).
-        assert!(pick(
-            Selection::Softmax,
-            0.95,
-            Some(Ordering::Less),
-            draw
-        ));
+        assert!(pick(Selection::Softmax, 0.95, Some(Ordering::Less), draw));
         assert!(!pick(
             Selection::Softmax,
             0.9,
