@@ -14,7 +14,9 @@
 mod common;
 
 use criterion::{BatchSize, BenchmarkId, Criterion, Throughput};
-use mbmf::batch::{Checkpoint, Cursor, RunStats, RunView, checkpoint_count, run_rng, step};
+use mbmf::batch::{
+    Checkpoint, Cursor, RunStats, RunView, Settled, checkpoint_count, run_rng, step,
+};
 use mbmf::env::Spec;
 use mbmf::expert::mb::OwnedModel;
 use mbmf::params::{Controller, Params};
@@ -39,7 +41,7 @@ fn learn(spec: &Spec) -> Learned {
     let mut entropy_mb = vec![f64::NAN; n_s];
     let mut p_mf = vec![0.0; sa];
     let mut max_mf = vec![params.q_init; n_s];
-    let mut settled = vec![0; n_s];
+    let mut settled = vec![Settled::default(); n_s];
     let mut cost_mf = vec![0.0; n_s];
     let mut cost_mb = vec![0.0; n_s];
     let mut visited = vec![false; n_s];
@@ -67,6 +69,8 @@ fn learn(spec: &Spec) -> Learned {
             cost_mb: &mut cost_mb,
             visited: &mut visited,
             bonus: &mut bonus,
+            arbiter_run: &mut [],
+            arbiter_pairs: &mut [],
             model: model.view(),
             scratch: &mut scratch,
             rng: &mut rng,
@@ -76,7 +80,7 @@ fn learn(spec: &Spec) -> Learned {
             plan: None,
         };
         while view.cursor.t < total {
-            step(spec, &params, window_cap, &mut view);
+            step(spec, &params, &mut view);
         }
     }
     Learned {

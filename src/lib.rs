@@ -12,6 +12,7 @@
 #![allow(clippy::too_many_arguments)]
 
 pub mod analysis;
+pub mod arbiter;
 pub mod batch;
 pub mod bench;
 pub mod env;

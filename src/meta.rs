@@ -1,21 +1,13 @@
 //! The meta-controller (SPEC 4): which expert controls the next action.
 
+use std::cmp::Ordering;
+
+use crate::arbiter::{Choice, Inputs};
 use crate::expert::{entropy_bits, normalise_bits};
 use crate::params::{Controller, Params, Selection};
 
 /// Costs are divided by the larger of the two; when both are 0, by this (SPEC 4, code).
 pub const TINY_COST: f64 = 1e-12;
-
-/// What the MC read and decided in one state.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Choice {
-    /// The MB expert controls this step.
-    pub use_mb: bool,
-    /// Softmax probability of MB over the two values (0.5 for `rnd`, 0 for `mf`, 1 for `mb`).
-    pub p_mb: f64,
-    /// Normalised entropy of the chosen expert's averaged distribution, as read before this step.
-    pub chosen_entropy: f64,
-}
 
 /// Expert values of Eq. 6 for `ec` and `entropy`, from the averaged distributions and per-state
 /// costs of state s. Returns (value of MF, value of MB).
@@ -29,7 +21,7 @@ pub fn expert_values(
 ) -> (f64, f64) {
     values_from_bits(
         params,
-        params.controller,
+        params.controller == Controller::Ec,
         entropy_bits(pavg_mf),
         entropy_bits(pavg_mb),
         pavg_mf.len(),
@@ -38,11 +30,12 @@ pub fn expert_values(
     )
 }
 
-/// [`expert_values`] from the two distributions' entropies in bits over `n_actions` actions.
+/// [`expert_values`] from the two distributions' entropies in bits over `n_actions` actions:
+/// `ec`'s with the cost term, `entropy`'s without.
 #[inline(always)]
 fn values_from_bits(
     params: &Params,
-    controller: Controller,
+    with_cost: bool,
     bits_mf: f64,
     bits_mb: f64,
     n_actions: usize,
@@ -57,8 +50,8 @@ fn values_from_bits(
     } else {
         (bits_mf, bits_mb)
     };
-    match controller {
-        Controller::Ec => {
+    match with_cost {
+        true => {
             // Eq. 7: kappa uses the MF entropy in bits, never normalised (SPEC 4).
             let kappa = (-params.kappa_coeff * bits_mf).exp();
             let scale = cost_mf.max(cost_mb);
@@ -68,7 +61,7 @@ fn values_from_bits(
                 -(h_mb + kappa * (cost_mb / scale)),
             )
         }
-        _ => (-h_mf, -h_mb),
+        false => (-h_mf, -h_mb),
     }
 }
 
@@ -79,55 +72,39 @@ pub fn p_mb_softmax(v_mf: f64, v_mb: f64, tau: f64) -> f64 {
     1.0 / (1.0 + ((v_mf - v_mb) / tau).exp())
 }
 
-/// The MC's choice in one state for `controller` (the run's, passed apart so that a step compiled
-/// for one controller folds the match), over `n_actions` actions. `bits_mf` and `bits_mb` give
-/// the entropies in bits of the two experts' averaged distributions in that state; each is asked
-/// at most once, and only when the controller reads it (the engine keeps them between visits).
-/// `uniform` draws a number in [0, 1) when a draw is needed: once for `rnd` and softmax
-/// selection, and only on a tie for argmax selection.
-#[allow(clippy::too_many_arguments)]
+/// Whether MB acts, given P(MB) = `p_mb` (SPEC 12.1): with softmax selection a draw below it;
+/// with argmax selection the better expert by `order` (how MB's value compares with MF's), a
+/// draw only on a tie.
 #[inline(always)]
-pub fn choose(
-    params: &Params,
-    controller: Controller,
-    n_actions: usize,
-    bits_mf: impl FnOnce() -> f64,
-    bits_mb: impl FnOnce() -> f64,
-    cost_mf: f64,
-    cost_mb: f64,
-    mut uniform: impl FnMut() -> f64,
-) -> Choice {
-    let n = n_actions;
-    let (use_mb, p_mb, chosen_bits) = match controller {
-        Controller::Mf => (false, 0.0, bits_mf()),
-        Controller::Mb => (true, 1.0, bits_mb()),
-        Controller::Rnd => {
-            let use_mb = uniform() < 0.5;
-            (use_mb, 0.5, if use_mb { bits_mb() } else { bits_mf() })
-        }
-        Controller::Ec | Controller::Entropy => {
-            let (bits_mf, bits_mb) = (bits_mf(), bits_mb());
-            let (v_mf, v_mb) =
-                values_from_bits(params, controller, bits_mf, bits_mb, n, cost_mf, cost_mb);
-            let p_mb = p_mb_softmax(v_mf, v_mb, params.tau);
-            let use_mb = match params.selection {
-                Selection::Softmax => uniform() < p_mb,
-                Selection::Argmax => {
-                    if v_mb == v_mf {
-                        uniform() < 0.5
-                    } else {
-                        v_mb > v_mf
-                    }
-                }
-            };
-            (use_mb, p_mb, if use_mb { bits_mb } else { bits_mf })
-        }
-    };
-    Choice {
-        use_mb,
-        p_mb,
-        chosen_entropy: normalise_bits(chosen_bits, n),
+pub fn pick(
+    selection: Selection,
+    p_mb: f64,
+    order: Option<Ordering>,
+    uniform: impl FnOnce() -> f64,
+) -> bool {
+    match selection {
+        Selection::Softmax => uniform() < p_mb,
+        Selection::Argmax => match order {
+            Some(Ordering::Equal) => uniform() < 0.5,
+            o => o == Some(Ordering::Greater),
+        },
     }
+}
+
+/// The choice of `ec` (`with_cost`) and `entropy` in one state (SPEC 4): the softmax
+/// probability of MB over the two values of Eq. 6, and MB drawn with it (or the better value,
+/// with argmax selection).
+#[inline(always)]
+pub fn by_values(inputs: &mut Inputs<'_>, with_cost: bool) -> Choice {
+    let (bits_mf, bits_mb) = (inputs.bits_mf(), inputs.bits_mb());
+    let params = inputs.params;
+    let (cost_mf, cost_mb, n) = (inputs.cost_mf, inputs.cost_mb, inputs.n_actions);
+    let (v_mf, v_mb) = values_from_bits(params, with_cost, bits_mf, bits_mb, n, cost_mf, cost_mb);
+    let p_mb = p_mb_softmax(v_mf, v_mb, params.tau);
+    let use_mb = pick(params.selection, p_mb, v_mb.partial_cmp(&v_mf), || {
+        inputs.uniform()
+    });
+    inputs.choice(use_mb, p_mb, Some(if use_mb { bits_mb } else { bits_mf }))
 }
 
 #[cfg(test)]
@@ -174,27 +151,27 @@ mod tests {
 
     #[test]
     fn argmax_prefers_the_better_value_and_draws_only_on_ties() {
-        let params = Params {
-            selection: Selection::Argmax,
-            ..Params::default()
+        let draws = std::cell::Cell::new(0);
+        let draw = || {
+            draws.set(draws.get() + 1);
+            0.9
         };
-        let mut draws = 0;
-        let c = choose(
-            &params,
-            params.controller,
-            2,
-            || entropy_bits(&[0.5, 0.5]),
-            || entropy_bits(&[1.0, 0.0]),
-            0.0,
-            0.0,
-            || {
-                draws += 1;
-                0.9
-            },
-        );
-        assert!(c.use_mb);
-        assert_eq!(draws, 0);
-        assert_eq!(c.chosen_entropy, 0.0);
+        // P(MB) does not matter to argmax, only the order of the values.
+        assert!(pick(Selection::Argmax, 0.0, Some(Ordering::Greater), draw));
+        assert!(!pick(Selection::Argmax, 1.0, Some(Ordering::Less), draw));
+        assert_eq!(draws.get(), 0);
+        // A tie draws: 0.9 is not below 1/2, so MF.
+        assert!(!pick(Selection::Argmax, 0.5, Some(Ordering::Equal), draw));
+        assert_eq!(draws.get(), 1);
+        // Softmax selection always draws, against P(MB).
+        assert!(pick(Selection::Softmax, 0.95, Some(Ordering::Less), draw));
+        assert!(!pick(
+            Selection::Softmax,
+            0.9,
+            Some(Ordering::Greater),
+            draw
+        ));
+        assert_eq!(draws.get(), 3);
     }
 
     #[test]

@@ -6,6 +6,7 @@ pub mod registry;
 
 use thiserror::Error;
 
+pub use crate::arbiter::Controller;
 use crate::env::tidy::Boxes;
 pub use registry::{Kind, Param, ParamValue, Value, param};
 
@@ -95,7 +96,6 @@ macro_rules! names {
 }
 
 names! {
-    Controller { Mf => "mf", Mb => "mb", Rnd => "rnd", Ec => "ec", Entropy => "entropy" }
     Selection { Softmax => "softmax", Argmax => "argmax" }
     CostModel { Ops => "ops", Wallclock => "wallclock" }
     Interaction {
@@ -117,48 +117,6 @@ names! {
         RewardsThenLeaves => "rewards-then-leaves",
         Nuisance => "nuisance",
         Custom => "custom",
-    }
-}
-
-/// Which experts the meta-controller may choose from, and how (SPEC 4).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
-pub enum Controller {
-    /// Model-free expert alone.
-    Mf,
-    /// Model-based expert alone.
-    Mb,
-    /// MF or MB with probability 1/2 each.
-    Rnd,
-    /// Entropy and cost (Eqs. 6–7): the paper's coordination.
-    Ec,
-    /// Eq. 6 without the cost term.
-    Entropy,
-}
-
-impl Controller {
-    /// All controllers, in the order results are reported.
-    pub const ALL: [Controller; 5] = [
-        Controller::Mf,
-        Controller::Mb,
-        Controller::Rnd,
-        Controller::Ec,
-        Controller::Entropy,
-    ];
-
-    /// Whether the controller runs both experts (and so both infer at a first decision).
-    pub fn is_dual(self) -> bool {
-        matches!(self, Controller::Rnd | Controller::Ec | Controller::Entropy)
-    }
-
-    /// Whether the MF expert runs (infers, computes its softmax, learns).
-    pub fn runs_mf(self) -> bool {
-        self != Controller::Mb
-    }
-
-    /// Whether the MB expert runs.
-    pub fn runs_mb(self) -> bool {
-        self != Controller::Mf
     }
 }
 
@@ -336,7 +294,7 @@ pub fn paper_budget(controller: Controller, interaction: Interaction) -> u32 {
 // is the order of the output columns, of `mbmf run --help` and of sweep-key listings.
 #[rustfmt::skip]
 registry::registry! {
-    special controller: Controller = Controller::Ec, "meta-controller: mf, mb, rnd, ec or entropy";
+    special controller: Controller = Controller::Ec, "meta-controller, the rule arbitrating between the experts (SPEC 4, 12)";
     flag selection: Selection = Selection::Softmax, "how the MC picks an expert: softmax or argmax";
     flag cost_model: CostModel = CostModel::Ops, "inference cost model: ops or wallclock",
         help ". Wallclock is not reproducible by nature";
@@ -391,6 +349,8 @@ registry::registry! {
         "how a congratulation acts: bias (Eq. 8) or reward shaping (SPEC 11.3)";
     flag boxes: Boxes = Boxes::RGB,
         "tidy1 box assignment at the start: position i gives cube i's box (rgb by default)";
+    flag w_mb: f64 = 0.5, "P(MB) of the fixed controller" ("probability"),
+        accepts "a weight in [0, 1]" if |x| (0.0..=1.0).contains(&x);
 }
 
 /// tidy1's box assignments as sweep files and flags name them: permutations of `rgb`, position

@@ -328,16 +328,15 @@ pub fn bytes_per_run(spec: &Spec, params: &Params) -> u64 {
 
 /// The parts of [`bytes_per_run`], each with the flag that shrinks it.
 fn memory_parts(spec: &Spec, params: &Params) -> [(u64, &'static str); 3] {
-    let pairs = (spec.n_states * spec.n_actions) as u64;
-    let states = spec.n_states as u64;
-    let outcomes = spec.outcome_state.len() as u64;
-    // Q (MF, MB) and averaged distributions: 4 x f64; G: u8; window length and position: 2 x u16.
-    let tables = pairs * (4 * 8 + 1 + 2 * 2)
-        + outcomes * (2 + 8)
-        + states * (2 * 8 + 2)
-        + spec.n_actions as u64 * 16
-        + RUN_ROW_BYTES;
-    let window = pairs.saturating_mul(2 * u64::from(params.window_n));
+    // The batch's own table of per-run arrays, sized for this run alone; the MB window's ring
+    // apart, as it has its own flag.
+    let sizes = crate::batch::Sizes::of(spec, std::iter::once(params), spec.outcome_state.len());
+    let unwindowed = crate::batch::Sizes {
+        window_cap: 0,
+        ..sizes
+    };
+    let tables = (unwindowed.bytes() + crate::batch::RUN_RECORD_BYTES) as u64 + RUN_ROW_BYTES;
+    let window = (sizes.bytes() - unwindowed.bytes()) as u64;
     let rows = crate::batch::checkpoint_count(params) as u64;
     let row_bytes = std::mem::size_of::<crate::batch::Checkpoint>() as u64
         + SERIES_ROW_BYTES

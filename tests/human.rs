@@ -3,7 +3,9 @@
 
 use std::sync::Arc;
 
-use mbmf::batch::{Batch, Checkpoint, Cursor, RunConfig, RunStats, RunView, run_rng, step};
+use mbmf::batch::{
+    Batch, Checkpoint, Cursor, RunConfig, RunStats, RunView, Settled, run_rng, step,
+};
 use mbmf::env::NO_NUISANCE;
 use mbmf::env::tidy::{Place, TidyState, Variant, enumerate};
 use mbmf::env::{self, Spec};
@@ -26,7 +28,7 @@ struct Solo {
     entropy_mb: Vec<f64>,
     p_mf: Vec<f64>,
     max_mf: Vec<f64>,
-    settled: Vec<u8>,
+    settled: Vec<Settled>,
     cost_mf: Vec<f64>,
     cost_mb: Vec<f64>,
     visited: Vec<bool>,
@@ -53,7 +55,7 @@ impl Solo {
             entropy_mb: vec![f64::NAN; spec.n_states],
             p_mf: vec![0.0; sa],
             max_mf: vec![params.q_init; spec.n_states],
-            settled: vec![0; spec.n_states],
+            settled: vec![Settled::default(); spec.n_states],
             cost_mf: vec![0.0; spec.n_states],
             cost_mb: vec![0.0; spec.n_states],
             visited: vec![false; spec.n_states],
@@ -88,6 +90,8 @@ impl Solo {
             cost_mb: &mut self.cost_mb,
             visited: &mut self.visited,
             bonus: &mut self.bonus,
+            arbiter_run: &mut [],
+            arbiter_pairs: &mut [],
             model: self.model.view(),
             scratch: &mut self.scratch,
             rng: &mut self.rng,
@@ -96,12 +100,7 @@ impl Solo {
             series: &mut self.series,
             plan: None,
         };
-        step(
-            &self.spec,
-            &self.params,
-            self.params.window_n as usize,
-            &mut view,
-        );
+        step(&self.spec, &self.params, &mut view);
     }
 
     /// Makes `action` the MF expert's near-certain choice in `state` (Q gap of 1 at tau 0.02).
@@ -111,7 +110,7 @@ impl Solo {
             self.q_mf[state * a + b] = if b == action { 1.0 } else { 0.0 };
         }
         // The row changed behind the step's back: what was kept from it no longer holds.
-        self.settled[state] = 0;
+        self.settled[state] = Settled::default();
         self.max_mf[state] = 1.0;
     }
 

@@ -345,6 +345,46 @@ fn every_controller_and_selection_on_tidy1_matches_the_naive_reference() {
 }
 
 #[test]
+fn fixed_weights_with_either_selection_match_the_naive_reference() {
+    // Never MB, a fair coin, mostly MB, always MB; argmax at 1/2 draws, elsewhere it does not.
+    let mut params = Vec::new();
+    for selection in [Selection::Softmax, Selection::Argmax] {
+        for w_mb in [0.0, 0.5, 0.8, 1.0] {
+            params.push(Params {
+                w_mb,
+                ..short(Controller::Fixed, selection)
+            });
+        }
+    }
+    params.push(Params {
+        w_mb: 0.3,
+        human: human(Interaction::Congratulation, 50),
+        ..short(Controller::Fixed, Selection::Softmax)
+    });
+    let configs = runs(&params, &[1, 2]);
+    let spec = spec("tidy1");
+    let mut batch = Batch::new(Arc::clone(&spec), configs.clone()).expect("valid configs");
+    batch.run_to_end();
+    // P(MB) is reported as w_mb at every decision; MB acts never at 0 and always at 1.
+    for (r, config) in configs.iter().enumerate() {
+        let (p, stats) = (&config.params, &batch.stats()[r]);
+        let mean = stats.p_mb_sum / stats.decisions as f64;
+        assert!(
+            (mean - p.w_mb).abs() < 1e-12,
+            "{}: {mean}",
+            describe(config)
+        );
+        if p.w_mb == 0.0 {
+            assert_eq!(stats.mb_decisions, 0);
+        }
+        if p.w_mb == 1.0 || (p.w_mb == 0.8 && p.selection == Selection::Argmax) {
+            assert_eq!(stats.mb_decisions, stats.decisions);
+        }
+    }
+    assert_parity(&spec, configs);
+}
+
+#[test]
 fn every_controller_on_tidy2_matches_the_naive_reference() {
     let spec = spec("tidy2");
     let mut params = all_controllers(Selection::Softmax);

@@ -12,97 +12,81 @@
 
 use std::time::Instant;
 
+use super::settled::{Expert, Fold};
 use super::{Checkpoint, RunView, Settled, initial_state, uniform};
+use crate::arbiter::{self, Arbiter, Inputs, Own, Transition, Visit};
 use crate::env::Spec;
-use crate::expert::{draw, ema, ema_into, entropy_bits, max_of, mf, softmax_biased};
+use crate::expert::{draw, ema, max_of, mf};
 use crate::human::{self, Encounter};
-use crate::meta;
 use crate::params::{
-    CongratulationEffect, Controller, CostModel, HumanParams, Interaction, Params, RewardSource,
+    CongratulationEffect, CostModel, HumanParams, Interaction, Params, RewardSource,
 };
 use crate::schedule::{Action, HumanChange, Plan};
 
 /// Advances one run by one step: a babbling step while `cursor.t < babbling`, then an experiment
 /// step. At the end of babbling the environment is reset to an initial state (not a step).
 #[inline]
-pub fn step(spec: &Spec, params: &Params, window_cap: usize, run: &mut RunView<'_>) {
+pub fn step(spec: &Spec, params: &Params, run: &mut RunView<'_>) {
     let end = run.cursor.t + 1;
-    run_until(spec, params, window_cap, run, end);
-}
-
-/// Controller kinds as const-generic parameters (stable Rust has no enum const generics).
-const MF: u8 = 0;
-const MB: u8 = 1;
-const RND: u8 = 2;
-const EC: u8 = 3;
-const ENTROPY: u8 = 4;
-
-/// The controller a const-generic kind stands for; folded at compile time.
-#[inline(always)]
-const fn controller(kind: u8) -> Controller {
-    match kind {
-        MF => Controller::Mf,
-        MB => Controller::Mb,
-        RND => Controller::Rnd,
-        EC => Controller::Ec,
-        _ => Controller::Entropy,
-    }
+    run_until(spec, params, run, end);
 }
 
 /// Advances one run until `cursor.t` reaches `end` (or the run ends): babbling, then the
 /// experiment, each as its own loop of a step compiled for the run's controller and for whether a
 /// human (or a schedule) can act at all, so none of that is branched on per step.
-pub(super) fn run_until(
-    spec: &Spec,
-    params: &Params,
-    window_cap: usize,
-    run: &mut RunView<'_>,
-    end: u64,
-) {
+pub(super) fn run_until(spec: &Spec, params: &Params, run: &mut RunView<'_>, end: u64) {
     // Without a schedule, a human that never interacts and the environment's own reward, no
     // human function can do anything: the steps skip them.
     let human = run.plan.is_some()
         || params.human.interaction != Interaction::None
         || params.reward_source != RewardSource::Environment;
-    // The tidy tasks' 7 actions get their own copy, whose rows have a length known at compile
-    // time (loops unrolled, no remainder handling); other action counts share a generic one.
-    if spec.n_actions == 7 {
-        by_kind::<7>(spec, params, window_cap, run, end, human);
-    } else {
-        by_kind::<0>(spec, params, window_cap, run, end, human);
-    }
+    let code = Loop {
+        spec,
+        params,
+        run,
+        end,
+        human,
+    };
+    arbiter::dispatch(params.controller, code);
 }
 
-/// [`run_until`] for `NA` actions (0: read from the spec): the controller and human mode.
-#[inline(always)]
-fn by_kind<const NA: usize>(
-    spec: &Spec,
-    params: &Params,
-    window_cap: usize,
-    run: &mut RunView<'_>,
+/// [`run_until`]'s arguments, waiting for the run's arbitration rule.
+struct Loop<'r, 'v> {
+    spec: &'r Spec,
+    params: &'r Params,
+    run: &'r mut RunView<'v>,
     end: u64,
     human: bool,
-) {
-    let (p, w) = (params, window_cap);
-    match (params.controller, human) {
-        (Controller::Mf, false) => run_loop::<MF, false, NA>(spec, p, w, run, end),
-        (Controller::Mf, true) => run_loop::<MF, true, NA>(spec, p, w, run, end),
-        (Controller::Mb, false) => run_loop::<MB, false, NA>(spec, p, w, run, end),
-        (Controller::Mb, true) => run_loop::<MB, true, NA>(spec, p, w, run, end),
-        (Controller::Rnd, false) => run_loop::<RND, false, NA>(spec, p, w, run, end),
-        (Controller::Rnd, true) => run_loop::<RND, true, NA>(spec, p, w, run, end),
-        (Controller::Ec, false) => run_loop::<EC, false, NA>(spec, p, w, run, end),
-        (Controller::Ec, true) => run_loop::<EC, true, NA>(spec, p, w, run, end),
-        (Controller::Entropy, false) => run_loop::<ENTROPY, false, NA>(spec, p, w, run, end),
-        (Controller::Entropy, true) => run_loop::<ENTROPY, true, NA>(spec, p, w, run, end),
+}
+
+impl Visit for Loop<'_, '_> {
+    type Output = ();
+
+    /// The loop for rule `A`, the human mode and the action count. The tidy tasks' 7 actions
+    /// get their own copy, whose rows have a length known at compile time (loops unrolled, no
+    /// remainder handling); other action counts share a generic one (`NA` 0: read from the spec).
+    #[inline(always)]
+    fn visit<A: Arbiter>(self) {
+        let Loop {
+            spec,
+            params: p,
+            run,
+            end,
+            human,
+        } = self;
+        match (spec.n_actions == 7, human) {
+            (true, false) => run_loop::<A, false, 7>(spec, p, run, end),
+            (true, true) => run_loop::<A, true, 7>(spec, p, run, end),
+            (false, false) => run_loop::<A, false, 0>(spec, p, run, end),
+            (false, true) => run_loop::<A, true, 0>(spec, p, run, end),
+        }
     }
 }
 
-/// [`run_until`] for one controller kind and human mode.
-fn run_loop<const KIND: u8, const HUMAN: bool, const NA: usize>(
+/// [`run_until`] for one arbitration rule and human mode.
+fn run_loop<A: Arbiter, const HUMAN: bool, const NA: usize>(
     spec: &Spec,
     params: &Params,
-    window_cap: usize,
     run: &mut RunView<'_>,
     end: u64,
 ) {
@@ -111,7 +95,7 @@ fn run_loop<const KIND: u8, const HUMAN: bool, const NA: usize>(
     let babble_end = end.min(babbling);
     if run.cursor.t < babble_end {
         while run.cursor.t < babble_end {
-            one_step::<KIND, HUMAN, NA, true>(spec, params, window_cap, run, 0);
+            one_step::<A, HUMAN, NA, true>(spec, params, run, 0);
         }
         if run.cursor.t == babbling {
             // End of babbling: back to the start; a pending reset step is dropped (SPEC 7).
@@ -135,7 +119,7 @@ fn run_loop<const KIND: u8, const HUMAN: bool, const NA: usize>(
     let mut row_at = next_row(t_exp);
     while run.cursor.t < end {
         t_exp += 1;
-        one_step::<KIND, HUMAN, NA, false>(spec, params, window_cap, run, t_exp);
+        one_step::<A, HUMAN, NA, false>(spec, params, run, t_exp);
         if t_exp == row_at {
             record_checkpoint(run, t_exp);
             row_at = next_row(t_exp);
@@ -159,10 +143,9 @@ fn world<'s>(spec: &'s Spec, run: &RunView<'s>) -> &'s Spec {
 
 /// One step (SPEC 3.4) at experiment step `t_exp` (0 while babbling).
 #[inline(always)]
-fn one_step<const KIND: u8, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
+fn one_step<A: Arbiter, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
     spec: &Spec,
     params: &Params,
-    window_cap: usize,
     run: &mut RunView<'_>,
     t_exp: u32,
 ) {
@@ -183,22 +166,20 @@ fn one_step<const KIND: u8, const HUMAN: bool, const NA: usize, const BABBLING: 
         run.cursor.pending_reset = false;
         run.cursor.state = initial_state(spec, run.rng);
     } else {
-        act::<KIND, HUMAN, NA, BABBLING>(spec, params, window_cap, run, s, t_exp);
+        act::<A, HUMAN, NA, BABBLING>(spec, params, run, s, t_exp);
     }
 }
 
 /// Steps 2 to 8 of SPEC 3.4 in a non-goal state.
 #[inline(always)]
-fn act<const KIND: u8, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
+fn act<A: Arbiter, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
     spec: &Spec,
     params: &Params,
-    window_cap: usize,
     run: &mut RunView<'_>,
     s: usize,
     t_exp: u32,
 ) {
     let babbling = BABBLING;
-    let controller = controller(KIND);
     let n_a = actions::<NA>(spec);
     let human = run.cursor.human;
     let human = &human;
@@ -212,7 +193,7 @@ fn act<const KIND: u8, const HUMAN: bool, const NA: usize, const BABBLING: bool>
     };
     let a = match action {
         Some(a) => a,
-        None => decide::<KIND, HUMAN, NA, BABBLING>(spec, params, run, s),
+        None => decide::<A, HUMAN, NA, BABBLING>(spec, params, run, s),
     };
 
     // 6. Environment.
@@ -253,12 +234,26 @@ fn act<const KIND: u8, const HUMAN: bool, const NA: usize, const BABBLING: bool>
     let learned = if shaped { reward + human.zeta } else { reward };
     run.bonus[sa] = if shaped { 0 } else { g };
 
-    // 8. Learning, by every expert the controller runs. The arrival is terminal when it is the
+    // 8. Learning, by every expert the rule runs (after the rule has seen the transition). The arrival is terminal when it is the
     // goal at this time (SPEC 10): both experts learn that from the transition itself.
     run.cursor.pending_reset = terminal;
-    if controller.runs_mf() {
+    if A::OBSERVES {
+        let t = Transition {
+            s,
+            a,
+            r: learned,
+            next,
+            terminal,
+        };
+        let mut own = Own {
+            run: run.arbiter_run,
+            pairs: run.arbiter_pairs,
+        };
+        A::observe(params, &mut own, &t, run.q_mf);
+    }
+    if A::RUNS_MF {
         // An `mf` run without a human keeps each Q row's maximum; other runs read the row.
-        let future = match (KIND == MF && !HUMAN, terminal) {
+        let future = match (mf_alone::<A>() && !HUMAN, terminal) {
             (_, true) => 0.0,
             (true, false) => run.max_mf[next],
             (false, false) => mf::future(run.q_mf, n_a, next, false),
@@ -276,22 +271,15 @@ fn act<const KIND: u8, const HUMAN: bool, const NA: usize, const BABBLING: bool>
         );
         // A new value in the row makes what was kept from it stale.
         if !HUMAN && run.q_mf[sa].to_bits() != before.to_bits() {
-            run.settled[s] &= !(Settled::SOFTMAX | Settled::AVERAGE);
-            if KIND == MF {
+            run.settled[s].q_changed(Expert::Mf);
+            if mf_alone::<A>() {
                 run.max_mf[s] = max_of(&run.q_mf[s * n_a..(s + 1) * n_a]);
             }
         }
     }
-    if controller.runs_mb() {
-        run.model.learn(
-            window_cap,
-            params.window_n as usize,
-            s,
-            a,
-            next,
-            learned,
-            terminal,
-        );
+    if A::RUNS_MB {
+        run.model
+            .learn(params.window_n as usize, s, a, next, learned, terminal);
     }
 
     if !babbling {
@@ -335,11 +323,11 @@ fn encounter<'r>(
 /// What a decision computes from rows that have not changed since the last decision in the
 /// state is taken from then, bit for bit the same: the entropies of the averaged distributions
 /// (kept per state until a moving average changes the row) and, without a human, each expert's
-/// softmax and moving average while its Q row is unchanged (see [`Settled`] and [`Fold`]; an
+/// softmax and moving average while its Q row is unchanged (see [`Settled`]; an
 /// `mf` run keeps the softmax itself). Once Q-learning has converged in a state, none of them
 /// changes: about 19 decisions in 20 of a 3,000-step tidy1 `mf` run.
 #[inline(always)]
-fn decide<const KIND: u8, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
+fn decide<A: Arbiter, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
     spec: &Spec,
     params: &Params,
     run: &mut RunView<'_>,
@@ -348,33 +336,36 @@ fn decide<const KIND: u8, const HUMAN: bool, const NA: usize, const BABBLING: bo
     let babbling = BABBLING;
     let n_a = actions::<NA>(spec);
     let row = s * n_a..(s + 1) * n_a;
-    let controller = controller(KIND);
 
-    // 3. Selection, from what earlier visits stored.
-    let rng = &mut *run.rng;
-    // The batch may hold no tables for an expert the controller does not run: each is indexed
-    // only when the controller asks for its entropy.
-    let (pavg_mf, pavg_mb) = (&*run.pavg_mf, &*run.pavg_mb);
-    let (entropy_mf, entropy_mb) = (&mut *run.entropy_mf, &mut *run.entropy_mb);
-    let choice = meta::choose(
+    // 3. Selection, from what earlier visits stored. The batch may hold no tables for an expert
+    // the rule does not run: each is indexed only when the rule asks for its entropy.
+    let mut inputs = Inputs {
         params,
-        controller,
-        n_a,
-        || entropy_bits_kept(&mut entropy_mf[s], &pavg_mf[row.clone()]),
-        || entropy_bits_kept(&mut entropy_mb[s], &pavg_mb[row.clone()]),
-        run.cost_mf[s],
-        run.cost_mb[s],
-        || uniform(rng),
-    );
+        n_actions: n_a,
+        state: s,
+        cost_mf: run.cost_mf[s],
+        cost_mb: run.cost_mb[s],
+        own: Own {
+            run: run.arbiter_run,
+            pairs: run.arbiter_pairs,
+        },
+        row: row.clone(),
+        pavg_mf: run.pavg_mf,
+        pavg_mb: run.pavg_mb,
+        entropy_mf: run.entropy_mf,
+        entropy_mb: run.entropy_mb,
+        rng: run.rng,
+    };
+    let choice = A::choose(&mut inputs);
 
     // 4. Inference: the chosen expert, and both at a first decision of a two-expert controller.
     let first = !run.visited[s];
     run.visited[s] = true;
-    let both = first && controller.is_dual();
+    let both = first && A::FIRST_DECISION_BOTH;
     let wallclock = params.cost_model == CostModel::Wallclock;
     let mut cost_mf = 0.0;
     let mut cost_mb = 0.0;
-    if controller.runs_mf() && (!choice.use_mb || both) {
+    if A::RUNS_MF && (!choice.use_mb || both) {
         let started = wallclock.then(Instant::now);
         // MF inference is reading its row, which the softmax below does.
         std::hint::black_box(&run.q_mf[row.clone()]);
@@ -384,7 +375,7 @@ fn decide<const KIND: u8, const HUMAN: bool, const NA: usize, const BABBLING: bo
         };
         run.cost_mf[s] = ema(run.cost_mf[s], cost_mf, params.filter_alpha);
     }
-    if controller.runs_mb() && (choice.use_mb || both) {
+    if A::RUNS_MB && (choice.use_mb || both) {
         let started = wallclock.then(Instant::now);
         // Only value iteration writes the MB's Q table, so its cached row maxima stay valid.
         let report = run.model.value_iteration_cached(
@@ -407,12 +398,12 @@ fn decide<const KIND: u8, const HUMAN: bool, const NA: usize, const BABBLING: bo
         }
         if !HUMAN && report.changed {
             for flags in run.settled.iter_mut() {
-                *flags &= !(Settled::MB_SOFTMAX | Settled::MB_AVERAGE);
+                flags.q_changed(Expert::Mb);
             }
         }
     }
 
-    // 5. Decision: each expert the controller runs computes its (biased) softmax and folds it in.
+    // 5. Decision: each expert the rule runs computes its (biased) softmax and folds it in.
     let bonus = if HUMAN {
         human::bonus_weight(&run.cursor.human, params.congratulation_effect)
     } else {
@@ -420,7 +411,7 @@ fn decide<const KIND: u8, const HUMAN: bool, const NA: usize, const BABBLING: bo
     };
     // An `mf` run without a human keeps its softmax of each state in `p_mf`; other runs compute
     // theirs into scratch space.
-    let keeps_softmax = KIND == MF && !HUMAN;
+    let keeps_softmax = mf_alone::<A>() && !HUMAN;
     let (scratch_mf, p_mb) = run.scratch.split_at_mut(n_a);
     let p_mf = if keeps_softmax {
         &mut run.p_mf[row.clone()]
@@ -428,7 +419,7 @@ fn decide<const KIND: u8, const HUMAN: bool, const NA: usize, const BABBLING: bo
         scratch_mf
     };
     // Without a human, flags say which folds would change nothing.
-    let mut none = 0;
+    let mut none = Settled::default();
     let settled = if HUMAN {
         &mut none
     } else {
@@ -436,45 +427,39 @@ fn decide<const KIND: u8, const HUMAN: bool, const NA: usize, const BABBLING: bo
     };
     let g = &run.bonus[row.clone()];
     let (tau, alpha) = (params.tau, params.filter_alpha);
-    if controller.runs_mf() {
+    if A::RUNS_MF {
         let fold = Fold {
-            softmax: Settled::SOFTMAX,
-            average: Settled::AVERAGE,
+            expert: Expert::Mf,
             drawn: !choice.use_mb,
             kept: keeps_softmax,
-        };
-        let avg = &mut run.pavg_mf[row.clone()];
-        let q = &run.q_mf[row.clone()];
-        fold.run(
-            q,
+            q: &run.q_mf[row.clone()],
             g,
             bonus,
             tau,
-            p_mf,
-            avg,
             alpha,
-            settled,
+        };
+        settled.fold(
+            &fold,
+            p_mf,
+            &mut run.pavg_mf[row.clone()],
             &mut run.entropy_mf[s],
         );
     }
-    if controller.runs_mb() {
+    if A::RUNS_MB {
         let fold = Fold {
-            softmax: Settled::MB_SOFTMAX,
-            average: Settled::MB_AVERAGE,
+            expert: Expert::Mb,
             drawn: choice.use_mb,
             kept: false,
-        };
-        let avg = &mut run.pavg_mb[row.clone()];
-        let q = &run.q_mb[row.clone()];
-        fold.run(
-            q,
+            q: &run.q_mb[row.clone()],
             g,
             bonus,
             tau,
-            p_mb,
-            avg,
             alpha,
-            settled,
+        };
+        settled.fold(
+            &fold,
+            p_mb,
+            &mut run.pavg_mb[row.clone()],
             &mut run.entropy_mb[s],
         );
     }
@@ -496,63 +481,11 @@ fn decide<const KIND: u8, const HUMAN: bool, const NA: usize, const BABBLING: bo
     a
 }
 
-/// One expert's step 5 in a state: its softmax, and the fold of that softmax into its averaged
-/// distribution, each skipped where the state's [`Settled`] flags (`softmax` and `average`, this
-/// expert's bits) say it would give what it gave last time.
-struct Fold {
-    softmax: u8,
-    average: u8,
-    /// The action is drawn from this expert's softmax, so it is needed whatever the flags say.
-    drawn: bool,
-    /// The softmax is written where it stays between decisions (an `mf` run's `p_mf`), so while
-    /// the row is unchanged it is there already.
-    kept: bool,
-}
-
-impl Fold {
-    /// Writes the softmax of `q` (with bonus `bonus * g`, temperature `tau`) into `p` when it is
-    /// needed, folds it into `avg` unless that is known to change nothing, and updates `settled`;
-    /// a changed `avg` makes its kept `entropy` unknown (NaN). Returns whether `avg` changed.
-    #[allow(clippy::too_many_arguments)]
-    #[inline(always)]
-    fn run(
-        &self,
-        q: &[f64],
-        g: &[u8],
-        bonus: f64,
-        tau: f64,
-        p: &mut [f64],
-        avg: &mut [f64],
-        alpha: f64,
-        settled: &mut u8,
-        entropy: &mut f64,
-    ) -> bool {
-        let both = self.softmax | self.average;
-        let unchanged = *settled & both == both;
-        let fresh = self.kept && *settled & self.softmax != 0;
-        if !fresh && (self.drawn || !unchanged) {
-            softmax_biased(q, g, bonus, tau, p);
-        }
-        if unchanged {
-            return false;
-        }
-        let changed = ema_into(avg, p, alpha);
-        *settled = (*settled & !both) | if changed { self.softmax } else { both };
-        if changed {
-            *entropy = f64::NAN;
-        }
-        changed
-    }
-}
-
-/// The entropy in bits of `row`, an averaged distribution, from `kept` unless that is NaN (not
-/// known since the row last changed), in which case it is computed and kept.
+/// Whether rule `A` runs the MF expert alone: such a run keeps each state's MF softmax and Q row
+/// maximum between decisions (the batch holds those tables for such runs only).
 #[inline(always)]
-fn entropy_bits_kept(kept: &mut f64, row: &[f64]) -> f64 {
-    if kept.is_nan() {
-        *kept = entropy_bits(row);
-    }
-    *kept
+const fn mf_alone<A: Arbiter>() -> bool {
+    A::RUNS_MF && !A::RUNS_MB
 }
 
 /// Applies the actions of `plan` due at experiment step `t_exp` (none while babbling), in order.
@@ -622,109 +555,4 @@ fn record_checkpoint(run: &mut RunView<'_>, t_exp: u32) {
     cursor.checkpoints_written += 1;
     cursor.window_p_mb = 0.0;
     cursor.window_decisions = 0;
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    const MF_BITS: u8 = Settled::SOFTMAX | Settled::AVERAGE;
-    const G: [u8; 3] = [0; 3];
-
-    /// One state's MF softmax buffer, averaged distribution, flags and kept entropy.
-    struct State {
-        p: [f64; 3],
-        avg: [f64; 3],
-        settled: u8,
-        entropy: f64,
-    }
-
-    impl State {
-        /// [`Fold::run`] of the MF expert on row `q` (temperature 0.5, alpha 0.6, no bonus).
-        fn fold(&mut self, q: &[f64; 3], drawn: bool, kept: bool) -> bool {
-            let fold = Fold {
-                softmax: Settled::SOFTMAX,
-                average: Settled::AVERAGE,
-                drawn,
-                kept,
-            };
-            let (p, avg) = (&mut self.p, &mut self.avg);
-            fold.run(
-                q,
-                &G,
-                0.0,
-                0.5,
-                p,
-                avg,
-                0.6,
-                &mut self.settled,
-                &mut self.entropy,
-            )
-        }
-    }
-
-    fn softmax(q: &[f64; 3]) -> [f64; 3] {
-        let mut p = [0.0; 3];
-        softmax_biased(q, &G, 0.0, 0.5, &mut p);
-        p
-    }
-
-    #[test]
-    fn a_settled_fold_is_skipped_and_its_softmax_only_computed_when_drawn() {
-        let q = [0.0, 1.0, 0.5];
-        // A kept entropy of the average; folding that moves the average makes it unknown.
-        let mut st = State {
-            p: [0.0; 3],
-            avg: [1.0 / 3.0; 3],
-            settled: 0,
-            entropy: 1.0,
-        };
-        // The first fold moves the average: only SOFTMAX is set, and it says so.
-        assert!(st.fold(&q, false, false));
-        assert_eq!(st.settled, Settled::SOFTMAX);
-        assert!(st.entropy.is_nan());
-        assert_eq!(st.p, softmax(&q));
-        // Folding the same softmax converges (the moving average reaches a fixed point).
-        let folds = (1..200).find(|_| {
-            st.fold(&q, false, false);
-            st.settled & MF_BITS == MF_BITS
-        });
-        assert!(folds.expect("the average settles") > 1);
-        let settled_avg = st.avg;
-        st.entropy = 2.0;
-        // Settled and not drawn: neither the softmax nor the average (nor its entropy) is touched.
-        st.p = [f64::NAN; 3];
-        assert!(!st.fold(&q, false, false));
-        assert!(st.p.iter().all(|x| x.is_nan()));
-        assert_eq!((st.avg, st.entropy), (settled_avg, 2.0));
-        // Drawn from: the softmax is computed again (bit for bit the same), the fold still not.
-        assert!(!st.fold(&q, true, false));
-        assert_eq!(st.p, softmax(&q));
-        assert_eq!(st.avg, settled_avg);
-        // Kept where it stays (an mf run's p_mf): not even the drawn softmax is recomputed.
-        st.p = [f64::NAN; 3];
-        assert!(!st.fold(&q, true, true));
-        assert!(st.p.iter().all(|x| x.is_nan()));
-        // A changed row (learning clears the flags) is computed and folded again.
-        st.settled &= !MF_BITS;
-        let q2 = [2.0, 1.0, 0.5];
-        assert!(st.fold(&q2, false, false));
-        assert_eq!(st.p, softmax(&q2));
-        assert_eq!(st.settled & MF_BITS, Settled::SOFTMAX);
-    }
-
-    #[test]
-    fn the_other_expert_s_flags_are_left_alone() {
-        let mut st = State {
-            p: [0.0; 3],
-            avg: [0.5, 0.25, 0.25],
-            settled: Settled::MB_SOFTMAX | Settled::MB_AVERAGE,
-            entropy: 0.0,
-        };
-        st.fold(&[0.3, 0.1, 0.0], false, false);
-        assert_eq!(
-            st.settled,
-            Settled::MB_SOFTMAX | Settled::MB_AVERAGE | Settled::SOFTMAX
-        );
-    }
 }

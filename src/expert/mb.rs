@@ -194,6 +194,9 @@ impl Predecessors {
 
 /// One run's learned model, as mutable views into the batch's arrays.
 pub struct Model<'a> {
+    /// Slots per pair in [`ring`](Model::ring): the largest window N of the batch's runs (a run's
+    /// own N may be smaller; its pair's ring then leaves the last slots unused).
+    pub window_cap: usize,
     /// Per pair, `window_cap` slots of outcome indices local to the pair (ring buffer).
     pub ring: &'a mut [u16],
     /// Per pair, how many executions the window holds (at most N).
@@ -268,12 +271,11 @@ impl Model<'_> {
     }
 
     /// Records one execution of (s, a) that arrived in `next` with reward `r`, `terminal` when
-    /// that arrival ended the episode (SPEC 10). `window_cap` is the ring stride of the batch,
-    /// `window_n` this run's N <= `window_cap`.
+    /// that arrival ended the episode (SPEC 10). `window_n` is this run's N <= the model's
+    /// `window_cap`.
     #[inline(always)]
     pub fn learn(
         &mut self,
-        window_cap: usize,
         window_n: usize,
         s: usize,
         a: usize,
@@ -285,7 +287,8 @@ impl Model<'_> {
         let sa = s * obs.n_actions + a;
         let first = obs.start[sa] as usize;
         let outcome = obs.find(sa, next);
-        let ring = &mut self.ring[sa * window_cap..sa * window_cap + window_n];
+        let cap = self.window_cap;
+        let ring = &mut self.ring[sa * cap..sa * cap + window_n];
         let pos = self.ring_pos[sa] as usize;
         let kept = &mut self.ring_len[sa];
         if (*kept as usize) < window_n {
@@ -583,6 +586,8 @@ fn row_max(best: &mut [f64], q: &[f64], s: usize, n_actions: usize) -> f64 {
 /// Owned storage for one run's model, for tests and the naive reference.
 #[derive(Debug, Clone)]
 pub struct OwnedModel {
+    /// See [`Model::window_cap`].
+    pub window_cap: usize,
     /// See [`Model::ring`].
     pub ring: Vec<u16>,
     /// See [`Model::ring_len`].
@@ -617,6 +622,7 @@ impl OwnedModel {
     pub fn over(obs: Arc<Observable>, window_cap: usize) -> Self {
         let pairs = obs.n_states * obs.n_actions;
         OwnedModel {
+            window_cap,
             ring: vec![0; pairs * window_cap],
             ring_len: vec![0; pairs],
             ring_pos: vec![0; pairs],
@@ -634,6 +640,7 @@ impl OwnedModel {
     /// A view usable by [`Model`]'s methods.
     pub fn view(&mut self) -> Model<'_> {
         Model {
+            window_cap: self.window_cap,
             ring: &mut self.ring,
             ring_len: &mut self.ring_len,
             ring_pos: &mut self.ring_pos,
@@ -675,7 +682,7 @@ mod tests {
         let mut m = owned.view();
         // Window N = 3; outcomes of (0, 0): s1, s1, s2, s2 -> the window keeps s1, s2, s2.
         for next in [1, 1, 2, 2] {
-            m.learn(3, 3, 0, 0, next, 0.0, next == 2);
+            m.learn(3, 0, 0, next, 0.0, next == 2);
         }
         assert!((m.probability(0, 0) - 1.0 / 3.0).abs() < 1e-15);
         assert!((m.probability(0, 1) - 2.0 / 3.0).abs() < 1e-15);
@@ -688,9 +695,9 @@ mod tests {
         let spec = toy();
         let mut owned = OwnedModel::new(&spec, 10);
         let mut m = owned.view();
-        m.learn(10, 10, 0, 0, 1, 5.0, false); // to s1, r 5
-        m.learn(10, 10, 0, 0, 2, 0.0, true); // to s2, r 0
-        m.learn(10, 10, 0, 0, 2, 3.0, true); // to s2, r 3 (replaces 0)
+        m.learn(10, 0, 0, 1, 5.0, false); // to s1, r 5
+        m.learn(10, 0, 0, 2, 0.0, true); // to s2, r 0
+        m.learn(10, 0, 0, 2, 3.0, true); // to s2, r 3 (replaces 0)
         // R = 1/3 * 5 + 2/3 * 3 = 11/3.
         assert!((m.expected_reward(0) - 11.0 / 3.0).abs() < 1e-12);
     }
@@ -700,9 +707,9 @@ mod tests {
         let spec = toy();
         let mut owned = OwnedModel::new(&spec, 10);
         let mut m = owned.view();
-        m.learn(10, 10, 0, 0, 1, 0.0, false); // 0 -> 1
-        m.learn(10, 10, 0, 0, 2, 0.0, true); // 0 -> 2 (goal, reward withheld: 0)
-        m.learn(10, 10, 1, 0, 2, 1.0, true); // 1 -> 2 (goal), r 1
+        m.learn(10, 0, 0, 1, 0.0, false); // 0 -> 1
+        m.learn(10, 0, 0, 2, 0.0, true); // 0 -> 2 (goal, reward withheld: 0)
+        m.learn(10, 1, 0, 2, 1.0, true); // 1 -> 2 (goal), r 1
         let mut q = vec![0.0; 3];
         // One sweep (max_sweeps 1): state 0 first: 0.5 * (0 + 0.9 * Q1 = 0) + 0.5 * (0 + 0) = 0;
         // then state 1: 1 * (1 + 0) = 1. ops: (2 + 1 terms) * (1 + 1) = 6.
@@ -822,15 +829,9 @@ mod tests {
                 0.0
             };
             let next = spec.outcome_state[o];
-            owned.view().learn(
-                window_n,
-                window_n,
-                s,
-                a,
-                next as usize,
-                r,
-                next == spec.goal,
-            );
+            owned
+                .view()
+                .learn(window_n, s, a, next as usize, r, next == spec.goal);
             if step % every == 0 {
                 let inc = owned
                     .view()
@@ -882,7 +883,7 @@ mod tests {
             let sa = spec.sa(s, a);
             let next = spec.outcome_state[spec.outcomes(sa).start] as usize;
             let terminal = next == spec.goal as usize;
-            owned.view().learn(10, 10, s, a, next, 1.0, terminal);
+            owned.view().learn(10, s, a, next, 1.0, terminal);
         }
         let mut q = vec![0.0; spec.n_states * spec.n_actions];
         owned

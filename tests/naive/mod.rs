@@ -564,6 +564,16 @@ impl NaiveRun {
             Controller::Mf => (false, 0.0),
             Controller::Mb => (true, 1.0),
             Controller::Rnd => (uniform(&mut self.rng) < 0.5, 0.5),
+            // SPEC 12.2: P(MB) = w_mb; argmax takes MB iff w_mb > 1/2, a fair draw at 1/2.
+            Controller::Fixed => {
+                let w = self.params.w_mb;
+                let use_mb = match self.params.selection {
+                    Selection::Softmax => uniform(&mut self.rng) < w,
+                    Selection::Argmax if w == 0.5 => uniform(&mut self.rng) < 0.5,
+                    Selection::Argmax => w > 0.5,
+                };
+                (use_mb, w)
+            }
             Controller::Ec | Controller::Entropy => {
                 let (v_mf, v_mb) = self.expert_values(s);
                 let z = (v_mf - v_mb) / self.params.tau;
@@ -771,7 +781,7 @@ impl NaiveRun {
     fn two_experts(&self) -> bool {
         matches!(
             self.params.controller,
-            Controller::Rnd | Controller::Ec | Controller::Entropy
+            Controller::Rnd | Controller::Ec | Controller::Entropy | Controller::Fixed
         )
     }
 

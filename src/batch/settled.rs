@@ -1,0 +1,206 @@
+//! What a decision in a state may take from the previous decision there instead of computing it
+//! again, bit for bit the same: one small set of flags per state of a run without a human, which
+//! owns both their invalidation and the fold they let a decision skip. Without a human the
+//! softmax of an expert depends only on its Q row (the bonus term is 0, the temperature fixed).
+
+use crate::expert::{ema_into, softmax_biased};
+
+/// One of the two experts, naming its half of the [`Settled`] flags.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Expert {
+    /// The model-free expert.
+    Mf,
+    /// The model-based expert.
+    Mb,
+}
+
+impl Expert {
+    /// The expert's two flags: (its softmax is unchanged, folding it changes nothing).
+    #[inline(always)]
+    const fn bits(self) -> (u8, u8) {
+        match self {
+            Expert::Mf => (1, 2),
+            Expert::Mb => (4, 8),
+        }
+    }
+}
+
+/// Per state, for each expert: whether its Q row has not changed since its softmax was last
+/// folded into its averaged distribution (for an `mf` run, which keeps that softmax, it is in
+/// `p_mf`), and whether that fold left the averaged distribution as it was, so that folding
+/// again would too. A new state knows nothing ([`Default`]).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[repr(transparent)]
+pub struct Settled(u8);
+
+/// One expert's step 5 in a state ([`Settled::fold`]): what it folds, and how it is used.
+pub struct Fold<'a> {
+    /// Which expert.
+    pub expert: Expert,
+    /// The action is drawn from this expert's softmax, so it is needed whatever the flags say.
+    pub drawn: bool,
+    /// The softmax is written where it stays between decisions (an `mf` run's `p_mf`), so while
+    /// the row is unchanged it is there already.
+    pub kept: bool,
+    /// The expert's Q row in the state.
+    pub q: &'a [f64],
+    /// G(s, .) of Eq. 8.
+    pub g: &'a [u8],
+    /// The weight of G in the softmax.
+    pub bonus: f64,
+    /// The softmax temperature.
+    pub tau: f64,
+    /// The moving averages' weight of the new value.
+    pub alpha: f64,
+}
+
+impl Settled {
+    /// The expert's Q row in the state changed: its softmax and fold must be computed again.
+    #[inline(always)]
+    pub fn q_changed(&mut self, expert: Expert) {
+        let (softmax, average) = expert.bits();
+        self.0 &= !(softmax | average);
+    }
+
+    /// Whether the expert's Q row is unchanged since its softmax was last folded.
+    #[inline(always)]
+    pub fn softmax_kept(self, expert: Expert) -> bool {
+        self.0 & expert.bits().0 != 0
+    }
+
+    /// Writes the softmax of `fold.q` (with bonus `fold.bonus * fold.g`) into `p` when it is
+    /// needed, folds it into `avg` unless that is known to change nothing, and updates the
+    /// flags; a changed `avg` makes its kept `entropy` unknown (NaN). Returns whether `avg`
+    /// changed.
+    #[inline(always)]
+    pub fn fold(
+        &mut self,
+        fold: &Fold<'_>,
+        p: &mut [f64],
+        avg: &mut [f64],
+        entropy: &mut f64,
+    ) -> bool {
+        let (softmax, average) = fold.expert.bits();
+        let both = softmax | average;
+        let unchanged = self.0 & both == both;
+        let fresh = fold.kept && self.0 & softmax != 0;
+        if !fresh && (fold.drawn || !unchanged) {
+            softmax_biased(fold.q, fold.g, fold.bonus, fold.tau, p);
+        }
+        if unchanged {
+            return false;
+        }
+        let changed = ema_into(avg, p, fold.alpha);
+        self.0 = (self.0 & !both) | if changed { softmax } else { both };
+        if changed {
+            *entropy = f64::NAN;
+        }
+        changed
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const G: [u8; 3] = [0; 3];
+
+    /// One state's MF softmax buffer, averaged distribution, flags and kept entropy.
+    struct State {
+        p: [f64; 3],
+        avg: [f64; 3],
+        settled: Settled,
+        entropy: f64,
+    }
+
+    impl State {
+        /// [`Settled::fold`] of the MF expert on row `q` (temperature 0.5, alpha 0.6, no bonus).
+        fn fold(&mut self, q: &[f64; 3], drawn: bool, kept: bool) -> bool {
+            let fold = Fold {
+                expert: Expert::Mf,
+                drawn,
+                kept,
+                q,
+                g: &G,
+                bonus: 0.0,
+                tau: 0.5,
+                alpha: 0.6,
+            };
+            self.settled
+                .fold(&fold, &mut self.p, &mut self.avg, &mut self.entropy)
+        }
+    }
+
+    fn softmax(q: &[f64; 3]) -> [f64; 3] {
+        let mut p = [0.0; 3];
+        softmax_biased(q, &G, 0.0, 0.5, &mut p);
+        p
+    }
+
+    /// Both of the MF expert's flags.
+    const MF_BOTH: Settled = Settled(1 | 2);
+
+    #[test]
+    fn a_settled_fold_is_skipped_and_its_softmax_only_computed_when_drawn() {
+        let q = [0.0, 1.0, 0.5];
+        // A kept entropy of the average; folding that moves the average makes it unknown.
+        let mut st = State {
+            p: [0.0; 3],
+            avg: [1.0 / 3.0; 3],
+            settled: Settled::default(),
+            entropy: 1.0,
+        };
+        // The first fold moves the average: only the softmax is known unchanged, and it says so.
+        assert!(st.fold(&q, false, false));
+        assert!(st.settled.softmax_kept(Expert::Mf));
+        assert_ne!(st.settled, MF_BOTH);
+        assert!(st.entropy.is_nan());
+        assert_eq!(st.p, softmax(&q));
+        // Folding the same softmax converges (the moving average reaches a fixed point).
+        let folds = (1..200).find(|_| {
+            st.fold(&q, false, false);
+            st.settled == MF_BOTH
+        });
+        assert!(folds.expect("the average settles") > 1);
+        let settled_avg = st.avg;
+        st.entropy = 2.0;
+        // Settled and not drawn: neither the softmax nor the average (nor its entropy) is touched.
+        st.p = [f64::NAN; 3];
+        assert!(!st.fold(&q, false, false));
+        assert!(st.p.iter().all(|x| x.is_nan()));
+        assert_eq!((st.avg, st.entropy), (settled_avg, 2.0));
+        // Drawn from: the softmax is computed again (bit for bit the same), the fold still not.
+        assert!(!st.fold(&q, true, false));
+        assert_eq!(st.p, softmax(&q));
+        assert_eq!(st.avg, settled_avg);
+        // Kept where it stays (an mf run's p_mf): not even the drawn softmax is recomputed.
+        st.p = [f64::NAN; 3];
+        assert!(!st.fold(&q, true, true));
+        assert!(st.p.iter().all(|x| x.is_nan()));
+        // A changed row is computed and folded again.
+        st.settled.q_changed(Expert::Mf);
+        assert_eq!(st.settled, Settled::default());
+        let q2 = [2.0, 1.0, 0.5];
+        assert!(st.fold(&q2, false, false));
+        assert_eq!(st.p, softmax(&q2));
+        assert!(st.settled.softmax_kept(Expert::Mf));
+    }
+
+    #[test]
+    fn the_other_expert_s_flags_are_left_alone() {
+        let mb_both = Settled(4 | 8);
+        let mut st = State {
+            p: [0.0; 3],
+            avg: [0.5, 0.25, 0.25],
+            settled: mb_both,
+            entropy: 0.0,
+        };
+        st.fold(&[0.3, 0.1, 0.0], false, false);
+        assert_eq!(st.settled, Settled(4 | 8 | 1));
+        // Invalidating MF leaves MB's flags; invalidating MB leaves MF's.
+        st.settled.q_changed(Expert::Mf);
+        assert_eq!(st.settled, mb_both);
+        st.settled.q_changed(Expert::Mb);
+        assert_eq!(st.settled, Settled::default());
+    }
+}

@@ -1,0 +1,291 @@
+//! The batch's per-run arrays, declared once: the [`tables!`] list below generates their owned
+//! storage ([`Tables`]: allocation and `state_layout` rows), one run's views into them
+//! ([`RunView`]), each run's initial values, and the bytes one run needs ([`Sizes::bytes`],
+//! which the memory estimate of `pipeline` reads). Adding an array is adding a row.
+//!
+//! Each array holds one row per run, all of one length, run after run; an array no run of the
+//! batch needs (the tables of an expert no run runs) has rows of length 0.
+
+use rand_xoshiro::Xoshiro256PlusPlus;
+
+use super::{Checkpoint, Cursor, RunStats, Settled};
+use crate::env::Spec;
+use crate::expert::mb::Model;
+use crate::params::{Controller, Params};
+use crate::schedule::Plan;
+
+/// The lengths the rows of the per-run arrays are made of.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Sizes {
+    /// States of the task.
+    pub states: usize,
+    /// Actions of the task.
+    pub actions: usize,
+    /// States of the MF expert's tables: the task's, or 0 when no run runs MF.
+    pub mf_states: usize,
+    /// States of the MB expert's tables: the task's, or 0 when no run runs MB.
+    pub mb_states: usize,
+    /// States of the tables only runs of the MF expert alone keep (their softmax and row
+    /// maxima between decisions; two-expert runs would outgrow 64 KiB of state per tidy run).
+    pub kept_states: usize,
+    /// Observable outcomes of the MB model (0 when no run runs MB).
+    pub outcomes: usize,
+    /// Ring slots per pair of the MB model: the largest window N of the runs.
+    pub window_cap: usize,
+    /// Words of the MB model's dirty-pair bit set.
+    pub dirty_words: usize,
+    /// Scalars per run of the most demanding arbitration rule.
+    pub arbiter_scalars: usize,
+    /// `[state, action]` tables per run of the most demanding arbitration rule.
+    pub arbiter_tables: usize,
+}
+
+impl Sizes {
+    /// The sizes for runs of `params` on `spec`, whose MB model observes `outcomes` outcomes.
+    /// An expert no run needs gets no tables at all: for a batch of `mf` runs that is half of
+    /// the memory the batch would otherwise fill, and the page faults and stores to fill it,
+    /// which cost more than a tenth of such a batch's whole time.
+    pub fn of<'p>(
+        spec: &Spec,
+        params: impl Iterator<Item = &'p Params> + Clone,
+        outcomes: usize,
+    ) -> Sizes {
+        let n_s = spec.n_states;
+        let any = |needs: fn(Controller) -> bool| params.clone().any(|p| needs(p.controller));
+        let states_if = |yes: bool| if yes { n_s } else { 0 };
+        let mb = any(Controller::runs_mb);
+        let max = |f: &dyn Fn(&Params) -> usize| params.clone().map(f).max().unwrap_or(0);
+        Sizes {
+            states: n_s,
+            actions: spec.n_actions,
+            mf_states: states_if(any(Controller::runs_mf)),
+            mb_states: states_if(mb),
+            kept_states: states_if(any(|c| c.runs_mf() && !c.runs_mb())),
+            outcomes: if mb { outcomes } else { 0 },
+            window_cap: max(&|p| p.window_n as usize).max(1),
+            dirty_words: if mb {
+                (n_s * spec.n_actions).div_ceil(64)
+            } else {
+                0
+            },
+            arbiter_scalars: max(&|p| p.controller.run_scalars(p)),
+            arbiter_tables: max(&|p| p.controller.pair_tables(p)),
+        }
+    }
+
+    /// Pairs of the MB model's tables.
+    fn mb_pairs(&self) -> usize {
+        self.mb_states * self.actions
+    }
+}
+
+/// Each array's row: `name: element type [per-run length] = initial value` (a view row; the
+/// MB model's rows have no initial value, `Model::clear` writes theirs). The first line names
+/// what lengths and initial values may read: the batch's [`Sizes`], the run's [`Params`] and
+/// the task's action count.
+macro_rules! tables {
+    (
+        |$z:ident, $p:ident, $n:ident|
+        view { $( $(#[$doc:meta])* $v:ident: $vt:ty [$vlen:expr] = $init:expr; )* }
+        model { $( $m:ident: $mt:ty [$mlen:expr]; )* }
+    ) => {
+        /// Every per-run array of a batch, each one row per run.
+        #[derive(Clone)]
+        pub(super) struct Tables {
+            $(pub(super) $v: Vec<$vt>,)*
+            $(pub(super) $m: Vec<$mt>,)*
+        }
+
+        impl Tables {
+            /// Zeroed arrays for `runs` runs of sizes `z`: allocated, not yet written (see
+            /// `Batch::start_runs`).
+            pub(super) fn new(runs: usize, $z: &Sizes) -> Tables {
+                Tables {
+                    $($v: vec![<$vt>::default(); runs * $vlen],)*
+                    $($m: vec![<$mt>::default(); runs * $mlen],)*
+                }
+            }
+
+            /// (name, bytes for all runs) of each array.
+            pub(super) fn layout(&self) -> Vec<(&'static str, usize)> {
+                vec![
+                    $((stringify!($v), std::mem::size_of_val(self.$v.as_slice())),)*
+                    $((stringify!($m), std::mem::size_of_val(self.$m.as_slice())),)*
+                ]
+            }
+
+            /// The arrays' rows, handed out run by run.
+            pub(super) fn rows(&mut self, runs: usize) -> TableRows<'_> {
+                TableRows {
+                    $($v: Rows::new(&mut self.$v, runs),)*
+                    $($m: Rows::new(&mut self.$m, runs),)*
+                }
+            }
+        }
+
+        impl Sizes {
+            /// Bytes of one run's rows of every array.
+            pub fn bytes(&self) -> usize {
+                let $z = self;
+                0 $(+ $vlen * std::mem::size_of::<$vt>())* $(+ $mlen * std::mem::size_of::<$mt>())*
+            }
+        }
+
+        /// The rows of every array not handed out yet.
+        pub(super) struct TableRows<'a> {
+            $($v: Rows<'a, $vt>,)*
+            $($m: Rows<'a, $mt>,)*
+        }
+
+        impl<'a> TableRows<'a> {
+            /// The next run's view: its rows of every array, and what is not an array.
+            pub(super) fn next_run(&mut self, rest: Rest<'a>) -> RunView<'a> {
+                RunView {
+                    $($v: self.$v.next().expect("one row per run"),)*
+                    model: Model {
+                        $($m: self.$m.next().expect("one row per run"),)*
+                        window_cap: rest.window_cap,
+                        active_terms: rest.active_terms,
+                        obs: rest.obs,
+                    },
+                    rng: rest.rng,
+                    cursor: rest.cursor,
+                    stats: rest.stats,
+                    series: rest.series,
+                    plan: rest.plan,
+                }
+            }
+        }
+
+        /// One run's mutable views into the batch, handed to [`step`](super::step).
+        pub struct RunView<'a> {
+            $($(#[$doc])* pub $v: &'a mut [$vt],)*
+            /// The MB expert's learned model.
+            pub model: Model<'a>,
+            /// The run's random stream.
+            pub rng: &'a mut Xoshiro256PlusPlus,
+            /// Where the run is.
+            pub cursor: &'a mut Cursor,
+            /// The run's accumulators.
+            pub stats: &'a mut RunStats,
+            /// The run's checkpoint rows.
+            pub series: &'a mut [Checkpoint],
+            /// The run's schedule of changes, compiled; `None` for a run without changes in the
+            /// batch's own environment.
+            pub plan: Option<&'a Plan>,
+        }
+
+        impl RunView<'_> {
+            /// Writes the run's initial values (see `Batch::start_runs`): every view row's, the
+            /// empty model, and the arbitration rule's own start.
+            pub(super) fn start(&mut self, params: &Params, n_actions: usize) {
+                let ($p, $n) = (params, n_actions);
+                $(self.$v.fill($init);)*
+                self.model.clear();
+                let mut own = crate::arbiter::Own {
+                    run: self.arbiter_run,
+                    pairs: self.arbiter_pairs,
+                };
+                crate::arbiter::start(params.controller, params, &mut own);
+            }
+        }
+    };
+}
+
+/// What a run's view holds besides its rows of the arrays.
+pub(super) struct Rest<'a> {
+    pub window_cap: usize,
+    pub active_terms: &'a mut u64,
+    pub obs: &'a crate::expert::mb::Observable,
+    pub rng: &'a mut Xoshiro256PlusPlus,
+    pub cursor: &'a mut Cursor,
+    pub stats: &'a mut RunStats,
+    pub series: &'a mut [Checkpoint],
+    pub plan: Option<&'a Plan>,
+}
+
+tables! {
+    |z, p, n_actions|
+    view {
+        /// MF action values, `[state, action]`.
+        q_mf: f64 [z.mf_states * z.actions] = p.q_init;
+        /// MB action values, `[state, action]`.
+        q_mb: f64 [z.mb_states * z.actions] = p.q_init;
+        /// MF averaged action probabilities, `[state, action]` (SPEC 3.3: uniform at first).
+        pavg_mf: f64 [z.mf_states * z.actions] = 1.0 / n_actions as f64;
+        /// MB averaged action probabilities, `[state, action]`.
+        pavg_mb: f64 [z.mb_states * z.actions] = 1.0 / n_actions as f64;
+        /// Entropy in bits of each state's MF averaged distribution, NaN when not known since
+        /// the row last changed.
+        entropy_mf: f64 [z.mf_states] = f64::NAN;
+        /// The same for the MB averaged distribution.
+        entropy_mb: f64 [z.mb_states] = f64::NAN;
+        /// For an `mf` run without a human: the MF softmax last computed in each state,
+        /// `[state, action]` (empty for other runs).
+        p_mf: f64 [z.kept_states * z.actions] = 0.0;
+        /// For an `mf` run without a human: the maximum of each state's MF Q row, folded as
+        /// learning folds it.
+        max_mf: f64 [z.kept_states] = crate::expert::max_of(&[p.q_init]);
+        /// For a run without a human: what still holds in each state ([`Settled`]).
+        settled: Settled [z.states] = Settled::default();
+        /// MF per-state inference cost average.
+        cost_mf: f64 [z.states] = 0.0;
+        /// MB per-state inference cost average.
+        cost_mb: f64 [z.states] = 0.0;
+        /// Per state: the robot has decided there before (first-decision rule, SPEC 4).
+        visited: bool [z.states] = false;
+        /// G(s, a) of Eq. 8, `[state, action]`.
+        bonus: u8 [z.states * z.actions] = 0;
+        /// The arbitration rule's per-run scalars ([`crate::arbiter::Own::run`]).
+        arbiter_run: f64 [z.arbiter_scalars] = 0.0;
+        /// The arbitration rule's per-run `[state, action]` tables ([`crate::arbiter::Own::pairs`]).
+        arbiter_pairs: f64 [z.arbiter_tables * z.states * z.actions] = 0.0;
+        /// 2 |A| values of scratch space for the two experts' distributions.
+        scratch: f64 [2 * z.actions] = 0.0;
+    }
+    model {
+        ring: u16 [z.mb_pairs() * z.window_cap];
+        ring_len: u16 [z.mb_pairs()];
+        ring_pos: u16 [z.mb_pairs()];
+        count: u16 [z.outcomes];
+        reward: f64 [z.outcomes];
+        terminal: bool [z.outcomes];
+        known: bool [z.mb_states];
+        best: f64 [z.mb_states];
+        dirty: u64 [z.dirty_words];
+    }
+}
+
+/// Consecutive rows of `len` elements of a slice, handed out one by one; empty rows forever when
+/// `len` is 0.
+pub(super) struct Rows<'a, T> {
+    rest: &'a mut [T],
+    len: usize,
+}
+
+impl<'a, T> Rows<'a, T> {
+    /// The rows of `a`, which holds `runs` equal rows.
+    fn new(a: &'a mut [T], runs: usize) -> Self {
+        let len = a.len().checked_div(runs).unwrap_or(0);
+        Rows { rest: a, len }
+    }
+}
+
+impl<'a, T> Iterator for Rows<'a, T> {
+    type Item = &'a mut [T];
+
+    fn next(&mut self) -> Option<&'a mut [T]> {
+        if self.rest.len() < self.len {
+            return None;
+        }
+        let (row, rest) = std::mem::take(&mut self.rest).split_at_mut(self.len);
+        self.rest = rest;
+        Some(row)
+    }
+}
+
+/// Run `r`'s row of `a`, an array of `runs` equal rows.
+pub(super) fn row<T>(a: &[T], runs: usize, r: usize) -> &[T] {
+    let len = a.len().checked_div(runs).unwrap_or(0);
+    &a[r * len..(r + 1) * len]
+}
