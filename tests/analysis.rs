@@ -219,9 +219,11 @@ fn pareto_front_holds_exactly_the_non_dominated_configurations_and_the_knee() {
         assert!(std::fs::metadata(&figure).unwrap().len() > 1000, "{ext}");
     }
     let svg = std::fs::read_to_string(dir.path().join("analysis/pareto.svg")).unwrap();
+    // Points are coloured by the swept kappa (named over the colour bar), so a label is the
+    // bare value.
     assert!(
-        svg.contains("knee") && svg.contains("kappa_coeff=2"),
-        "knee and labels drawn"
+        svg.contains("\nknee (2)\n") && svg.contains("\nkappa_coeff\n"),
+        "knee, labels and colour bar drawn"
     );
 }
 

@@ -13,7 +13,7 @@ use std::path::Path;
 use crate::analysis::AnalysisError;
 use crate::analysis::dataset::{self, Filter, RUN_IDENTITY, ReadOptions, Table, Value};
 use crate::analysis::stats;
-use crate::plot::{LineChart, Series};
+use crate::plot::{LineChart, LineColours, Series};
 
 /// The series column a curve shows.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -70,6 +70,8 @@ impl CurveMetric {
 pub struct Curve {
     /// The group's value of the `--by` column, as text (`(none)` for an empty text).
     pub label: String,
+    /// That value as a number, when the `--by` column is numeric.
+    pub value: Option<f64>,
     /// Checkpoint steps, ascending.
     pub steps: Vec<u32>,
     /// Mean over runs at each step.
@@ -126,6 +128,7 @@ pub fn mean_curves(points: &[Point<'_>], order: &[String]) -> Vec<Curve> {
             let steps = acc.get(label.as_str())?;
             let mut curve = Curve {
                 label: label.clone(),
+                value: None,
                 steps: Vec::with_capacity(steps.len()),
                 mean: Vec::with_capacity(steps.len()),
                 sem: Vec::with_capacity(steps.len()),
@@ -251,8 +254,14 @@ pub fn curves_of(
             value: values[row],
         });
     }
-    let order: Vec<String> = groups.into_values().collect();
-    let curves = mean_curves(&points, &order);
+    let order: Vec<String> = groups.values().cloned().collect();
+    let mut curves = mean_curves(&points, &order);
+    for curve in &mut curves {
+        curve.value = groups
+            .iter()
+            .find(|(_, label)| **label == curve.label)
+            .and_then(|(value, _)| value.as_f64());
+    }
     if curves.is_empty() {
         return Err(AnalysisError::NothingToAnalyse {
             dataset: series.source().to_owned(),
@@ -279,6 +288,19 @@ fn key(table: &Table, identity: &[String], row: usize) -> Result<Vec<Value>, Ana
 }
 
 impl Curves {
+    /// How to colour the curves: by value on a colour scale when the groups are numbers (a
+    /// swept parameter), by label otherwise.
+    pub fn colours(&self) -> LineColours {
+        let values: Option<Vec<f64>> = self.curves.iter().map(|c| c.value).collect();
+        match values {
+            Some(values) => LineColours::Scale {
+                title: self.by.clone(),
+                values,
+            },
+            None => LineColours::Labels,
+        }
+    }
+
     /// A line chart of the curves: mean with a standard-error band per group, a vertical mark
     /// at each change step. `title` goes above the plot.
     pub fn chart(&self, title: &str) -> LineChart {
@@ -315,7 +337,13 @@ impl Curves {
 /// a name longer than 96 characters is cut and ends with a hash of the whole, so distinct
 /// filters never share a file.
 pub fn figure_name(metric: CurveMetric, by: &str, filters: &[Filter]) -> String {
-    let mut name = format!("{}-by-{by}", metric.column());
+    safe_name(&format!("{}-by-{by}", metric.column()), filters)
+}
+
+/// `stem`, then each filter as `-COLUMN-VALUE`, made safe for a file name (see
+/// [`figure_name`]).
+fn safe_name(stem: &str, filters: &[Filter]) -> String {
+    let mut name = stem.to_owned();
     for f in filters {
         name.push_str(&format!("-{}-{}", f.column, f.value));
     }
@@ -345,6 +373,11 @@ pub fn title(metric: CurveMetric, by: &str, filters: &[Filter]) -> String {
     if let Some((first, _)) = title.split_once(',') {
         title = format!("{first} by {by}");
     }
+    with_filters(title, filters)
+}
+
+/// `title`, then the filters in parentheses (long schedule paths shortened to their file).
+fn with_filters(mut title: String, filters: &[Filter]) -> String {
     if !filters.is_empty() {
         let texts: Vec<String> = filters
             .iter()
@@ -368,6 +401,210 @@ pub fn title(metric: CurveMetric, by: &str, filters: &[Filter]) -> String {
         title.push_str(&format!(" ({})", texts.join(", ")));
     }
     title
+}
+
+// ---------------------------------------------------------------------------------------------
+// Response curves: a runs-table metric against a swept parameter (`mbmf plot --x`)
+
+/// One group's response curve: at each value of the swept parameter, the mean of the metric
+/// over the group's runs with the half-width of its 95% Student-t confidence interval.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Response {
+    /// The group's value of the `--by` column as text (`all runs` without `--by`).
+    pub label: String,
+    /// That value as a number, when the `--by` column is numeric.
+    pub value: Option<f64>,
+    /// The swept parameter's values, ascending.
+    pub x: Vec<f64>,
+    /// Mean of the metric over the runs at each `x`.
+    pub mean: Vec<f64>,
+    /// Half-width of the 95% Student-t confidence interval of that mean (NaN below two runs).
+    pub ci95: Vec<f64>,
+    /// Runs with a value of the metric at each `x`.
+    pub n: Vec<usize>,
+}
+
+/// The response curves of a dataset, ready to draw.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Responses {
+    /// What was read.
+    pub source: String,
+    /// The swept parameter (x axis).
+    pub x: String,
+    /// The runs-table metric (y axis).
+    pub metric: String,
+    /// The grouping column, if any.
+    pub by: Option<String>,
+    /// One curve per group, in ascending order of the group value.
+    pub curves: Vec<Response>,
+}
+
+/// The numeric column `name` of the runs, for `flag`; a column holding something else is
+/// refused with the numeric columns and the closest of them.
+fn numeric_for(table: &Table, name: &str, flag: &str) -> Result<Vec<Option<f64>>, AnalysisError> {
+    let column = table.column(name)?;
+    if column.is_numeric() {
+        return Ok(table.numeric(name, flag)?);
+    }
+    let numeric = table.numeric_names();
+    Err(AnalysisError::NothingToAnalyse {
+        dataset: table.source().to_owned(),
+        reason: format!(
+            "column '{name}' holds {}, but {flag} needs a numeric column of the runs table;              {}numeric columns: {}",
+            column.type_name(),
+            crate::suggest::hint(name, numeric.iter().map(String::as_str)),
+            numeric.join(", ")
+        ),
+    })
+}
+
+/// Mean and 95% interval of `metric` at each value of `x`, per group of `by`, over the runs of
+/// `runs` (already filtered). Runs without a value of `x` or of the metric are left out.
+///
+/// # Errors
+/// A missing column, an `x` or metric column that is not numeric, or no run with both values.
+pub fn response_curves(
+    runs: &Table,
+    x: &str,
+    metric: &str,
+    by: Option<&str>,
+) -> Result<Responses, AnalysisError> {
+    let xs = numeric_for(runs, x, "--x")?;
+    let ys = numeric_for(runs, metric, "--metric")?;
+    let by_column = by.map(|b| runs.column(b)).transpose()?;
+    let mut groups: BTreeMap<Value, BTreeMap<u64, Vec<f64>>> = BTreeMap::new();
+    for row in 0..runs.len() {
+        let (Some(xv), Some(yv)) = (xs[row], ys[row]) else {
+            continue;
+        };
+        let group = by_column.map_or(Value::Null, |c| c.value(row));
+        // Keyed by the bits of a total-order-preserving map of x, so equal x values meet.
+        groups
+            .entry(group)
+            .or_default()
+            .entry(order_key(xv))
+            .or_default()
+            .push(yv);
+    }
+    let curves: Vec<Response> = groups
+        .into_iter()
+        .map(|(group, points)| {
+            let mut curve = Response {
+                label: match (&group, by) {
+                    (_, None) => "all runs".to_owned(),
+                    (Value::Str(s), _) if s.is_empty() => "(none)".to_owned(),
+                    (v, _) => v.to_string(),
+                },
+                value: group.as_f64(),
+                x: Vec::with_capacity(points.len()),
+                mean: Vec::with_capacity(points.len()),
+                ci95: Vec::with_capacity(points.len()),
+                n: Vec::with_capacity(points.len()),
+            };
+            for (key, values) in points {
+                curve.x.push(from_order_key(key));
+                curve.mean.push(stats::mean(&values));
+                curve.ci95.push(stats::ci95_half_width(&values));
+                curve.n.push(values.len());
+            }
+            curve
+        })
+        .collect();
+    if curves.is_empty() {
+        return Err(AnalysisError::NothingToAnalyse {
+            dataset: runs.source().to_owned(),
+            reason: format!("no run has a value of both {x} and {metric}"),
+        });
+    }
+    Ok(Responses {
+        source: runs.source().to_owned(),
+        x: x.to_owned(),
+        metric: metric.to_owned(),
+        by: by.map(str::to_owned),
+        curves,
+    })
+}
+
+/// A key that sorts as `v` does (`f64::total_cmp`), and its inverse.
+fn order_key(v: f64) -> u64 {
+    let bits = v.to_bits();
+    if bits >> 63 == 1 {
+        !bits
+    } else {
+        bits | 1 << 63
+    }
+}
+
+fn from_order_key(key: u64) -> f64 {
+    f64::from_bits(if key >> 63 == 1 {
+        key & !(1 << 63)
+    } else {
+        !key
+    })
+}
+
+impl Responses {
+    /// Whether the groups are values of a number (drawn on a colour scale).
+    pub fn numeric_groups(&self) -> bool {
+        self.by.is_some() && self.curves.iter().all(|c| c.value.is_some())
+    }
+
+    /// A line chart: per group, the mean against the swept parameter with its 95% band (no
+    /// band where a point has a single run), and how to colour the groups: by their value on a
+    /// colour scale when the groups are numbers, by label otherwise.
+    pub fn chart(&self, title: &str) -> (LineChart, LineColours) {
+        let by = self.by.as_deref().unwrap_or_default();
+        let series = self
+            .curves
+            .iter()
+            .map(|c| Series {
+                // A controller's name alone keeps its fixed colour.
+                label: match self.by.as_deref() {
+                    None | Some("controller") => c.label.clone(),
+                    Some(by) => format!("{by}={}", c.label),
+                },
+                x: c.x.clone(),
+                y: c.mean.clone(),
+                band: Some(
+                    c.ci95
+                        .iter()
+                        .map(|h| if h.is_finite() { *h } else { 0.0 })
+                        .collect(),
+                ),
+            })
+            .collect();
+        let colours = if self.numeric_groups() {
+            LineColours::Scale {
+                title: by.to_owned(),
+                values: self.curves.iter().filter_map(|c| c.value).collect(),
+            }
+        } else {
+            LineColours::Labels
+        };
+        let chart = LineChart {
+            title: title.to_owned(),
+            x_label: self.x.clone(),
+            y_label: format!("{} (mean, 95% CI)", self.metric),
+            series,
+            log_x: false,
+            log_y: false,
+            x_marks: Vec::new(),
+        };
+        (chart, colours)
+    }
+}
+
+/// The response figure's file name (no extension): `METRIC-vs-X[-by-BY]`, then the filters as
+/// in [`figure_name`].
+pub fn response_name(metric: &str, x: &str, by: Option<&str>, filters: &[Filter]) -> String {
+    let by = by.map(|b| format!("-by-{b}")).unwrap_or_default();
+    safe_name(&format!("{metric}-vs-{x}{by}"), filters)
+}
+
+/// The response figure's title: `METRIC against X[, by BY]`, then the filters as in [`title`].
+pub fn response_title(metric: &str, x: &str, by: Option<&str>, filters: &[Filter]) -> String {
+    let by = by.map(|b| format!(", by {b}")).unwrap_or_default();
+    with_filters(format!("{metric} against {x}{by}"), filters)
 }
 
 #[cfg(test)]

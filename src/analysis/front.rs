@@ -32,13 +32,28 @@ pub type ComparableGroup = (Vec<(String, Value)>, Table);
 /// task and step count present, in ascending order; the whole table, with no values, when
 /// neither varies.
 pub fn comparable_groups(table: &Table) -> Result<Vec<ComparableGroup>, AnalysisError> {
+    groups_by(table, &[])
+}
+
+/// The runs of `table` split by the [`INCOMPARABLE`] columns that vary in it and by every
+/// column of `by` (`mbmf pareto --by interaction`: one front per human), in ascending order of
+/// those values; each group carries its values of them, the `by` columns even when they take
+/// one value only. The whole table, with no values, when there is nothing to split by.
+///
+/// # Errors
+/// A `by` column the table lacks (the message lists the columns and the closest name).
+pub fn groups_by(table: &Table, by: &[String]) -> Result<Vec<ComparableGroup>, AnalysisError> {
+    for column in by {
+        table.column(column)?;
+    }
     let present: Vec<String> = INCOMPARABLE
         .iter()
-        .filter(|c| table.has(c))
+        .filter(|c| table.has(c) && !by.iter().any(|b| b == *c))
         .map(|c| (*c).to_owned())
         .collect();
     let all: Vec<usize> = (0..table.len()).collect();
-    let keys = varying_columns(table, &present, &all);
+    let mut keys = varying_columns(table, &present, &all);
+    keys.extend(by.iter().cloned());
     if keys.is_empty() {
         return Ok(vec![(Vec::new(), table.clone())]);
     }
@@ -51,6 +66,34 @@ pub fn comparable_groups(table: &Table) -> Result<Vec<ComparableGroup>, Analysis
             (values, table.take(&rows).renamed(source))
         })
         .collect())
+}
+
+/// The column of the human's effort, minimised by default when it varies.
+pub const HUMAN_EFFORT: &str = "interactions";
+
+/// The objectives used when none are given: [`DEFAULT_OBJECTIVES`], plus `interactions:min`
+/// when the runs' `interactions` take more than one value. A human's help is a cost like the
+/// computation: without it, a front over a sweep of humans or budgets calls the most helped
+/// configuration free. Where it does not vary it could not change the front, so the paper's
+/// three objectives stay alone.
+pub fn default_objectives(table: &Table) -> Vec<Objective> {
+    let mut objectives: Vec<Objective> = DEFAULT_OBJECTIVES
+        .split(',')
+        .map(|o| Objective::parse(o).expect("the default objectives parse"))
+        .collect();
+    let varies = table.numeric(HUMAN_EFFORT, "").is_ok_and(|values| {
+        let mut finite = values.into_iter().flatten();
+        finite
+            .next()
+            .is_some_and(|first| finite.any(|v| v != first))
+    });
+    if varies {
+        objectives.push(Objective {
+            name: HUMAN_EFFORT.to_owned(),
+            direction: Direction::Minimize,
+        });
+    }
+    objectives
 }
 
 /// Runs grouped by configuration, with every numeric result averaged over each group.
@@ -165,6 +208,36 @@ impl Configurations {
             .iter()
             .position(|k| k == name)
             .map(|i| &self.values[c][i])
+    }
+
+    /// The numeric configuration column that varies most (most distinct values; the first in
+    /// `keys` on a tie), the swept number a figure colours its points by; `None` when no
+    /// numeric column varies.
+    pub fn swept_number(&self) -> Option<&str> {
+        self.varying
+            .iter()
+            .filter_map(|name| {
+                let k = self.keys.iter().position(|k| k == name)?;
+                let mut values: Vec<f64> = self
+                    .values
+                    .iter()
+                    .map(|row| row[k].as_f64())
+                    .collect::<Option<_>>()?;
+                values.sort_by(f64::total_cmp);
+                values.dedup();
+                Some((values.len(), std::cmp::Reverse(k), name.as_str()))
+            })
+            .max()
+            .map(|(_, _, name)| name)
+    }
+
+    /// Configuration `c`'s value of `name`: a configuration column's value, or the mean of an
+    /// averaged result; `None` if it is neither or not a number.
+    pub fn number(&self, c: usize, name: &str) -> Option<f64> {
+        match self.key_value(c, name) {
+            Some(v) => v.as_f64(),
+            None => self.metric_index(name).map(|m| self.mean[c][m]),
+        }
     }
 
     /// A short label of configuration `c` from the varying columns: text values bare, others
