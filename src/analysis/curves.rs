@@ -751,4 +751,122 @@ mod tests {
         let e = CurveMetric::parse("reward").unwrap_err();
         assert!(e.contains("'reward'") && e.contains("cum_reward"), "{e}");
     }
+
+    /// Runs of a tiny sweep: kappa (x), a reward (metric) and the human (group).
+    fn sweep_runs() -> Table {
+        use crate::analysis::dataset::Column;
+        // Group "none": x=1 -> 1, 2, 3; x=2 -> 4, 8; x=3 -> 5 (one run). Group "takeover":
+        // x=1 -> 10, 10 (no spread). A run without a reward is left out.
+        let rows: [(&str, f64, Option<f64>); 9] = [
+            ("none", 1.0, Some(1.0)),
+            ("none", 2.0, Some(4.0)),
+            ("takeover", 1.0, Some(10.0)),
+            ("none", 1.0, Some(2.0)),
+            ("none", 3.0, Some(5.0)),
+            ("none", 2.0, Some(8.0)),
+            ("none", 1.0, Some(3.0)),
+            ("takeover", 1.0, Some(10.0)),
+            ("none", 3.0, None),
+        ];
+        let mut runs = Table::new("sweep");
+        runs.push("interaction", Column::texts(rows.iter().map(|r| Some(r.0))));
+        runs.push(
+            "kappa_coeff",
+            Column::floats(rows.iter().map(|r| Some(r.1))),
+        );
+        runs.push("total_reward", Column::floats(rows.iter().map(|r| r.2)));
+        runs
+    }
+
+    #[test]
+    fn response_curves_give_the_mean_and_t_interval_at_each_swept_value() {
+        let r = response_curves(
+            &sweep_runs(),
+            "kappa_coeff",
+            "total_reward",
+            Some("interaction"),
+        )
+        .unwrap();
+        assert_eq!(r.curves.len(), 2);
+        let (none, takeover) = (&r.curves[0], &r.curves[1]);
+        assert_eq!(none.label, "none");
+        assert_eq!(none.x, [1.0, 2.0, 3.0]);
+        assert_eq!(none.mean, [2.0, 6.0, 5.0]);
+        assert_eq!(none.n, [3, 2, 1]);
+        // x=1: sd 1, t(0.975, 2) = 0.95 / sqrt(2 * 0.975 * 0.025) (Student's t with two
+        // degrees of freedom in closed form), half-width t / sqrt(3).
+        let t2 = 0.95 / (2.0f64 * 0.975 * 0.025).sqrt();
+        let want = t2 / 3f64.sqrt();
+        assert!(
+            (none.ci95[0] - want).abs() < 1e-9 * want,
+            "{} vs {want}",
+            none.ci95[0]
+        );
+        // x=2: sd sqrt(8), sem 2, t(0.975, 1) = tan(0.475 pi) (the Cauchy quantile).
+        let want = 2.0 * (0.475 * std::f64::consts::PI).tan();
+        assert!(
+            (none.ci95[1] - want).abs() < 1e-9 * want,
+            "{} vs {want}",
+            none.ci95[1]
+        );
+        assert!(none.ci95[2].is_nan(), "no interval from one run");
+        assert_eq!(
+            (takeover.x.as_slice(), takeover.mean.as_slice()),
+            (&[1.0][..], &[10.0][..])
+        );
+        assert_eq!(takeover.ci95, [0.0]);
+
+        // The chart draws the band (0 where undefined) and colours text groups by label.
+        let (chart, colours) = r.chart("t");
+        assert_eq!(chart.series[0].label, "interaction=none");
+        assert_eq!(chart.series[0].band.as_ref().unwrap()[2], 0.0);
+        assert_eq!(chart.x_label, "kappa_coeff");
+        assert_eq!(colours, LineColours::Labels);
+
+        // Without --by: one curve of all runs; grouped by a number: a colour scale.
+        let all = response_curves(&sweep_runs(), "kappa_coeff", "total_reward", None).unwrap();
+        assert_eq!(all.curves.len(), 1);
+        assert_eq!(all.curves[0].mean[0], 26.0 / 5.0, "1, 2, 3, 10, 10");
+        let by_number = response_curves(
+            &sweep_runs(),
+            "total_reward",
+            "kappa_coeff",
+            Some("kappa_coeff"),
+        )
+        .unwrap();
+        assert!(matches!(by_number.chart("t").1, LineColours::Scale { .. }));
+    }
+
+    #[test]
+    fn response_curves_refuse_a_column_that_is_not_numeric_naming_the_numeric_ones() {
+        let e = response_curves(&sweep_runs(), "interaction", "total_reward", None)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("column 'interaction' holds text, but --x needs a numeric column")
+                && e.contains("numeric columns: kappa_coeff, total_reward"),
+            "{e}"
+        );
+        let e = response_curves(&sweep_runs(), "kappa_coeff", "interaction", None)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("--metric"), "{e}");
+        let e = response_curves(&sweep_runs(), "kappa", "total_reward", None)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("no column 'kappa' (did you mean 'kappa_coeff'?)"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn order_keys_sort_as_the_numbers_and_read_back() {
+        let values = [-2.5, -0.0, 0.0, 1e-300, 3.0, f64::INFINITY];
+        let keys: Vec<u64> = values.iter().map(|&v| order_key(v)).collect();
+        assert!(keys.windows(2).all(|w| w[0] < w[1]), "{keys:?}");
+        for v in values {
+            assert_eq!(from_order_key(order_key(v)).to_bits(), v.to_bits());
+        }
+    }
 }

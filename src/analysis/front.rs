@@ -401,3 +401,60 @@ impl Front {
         t
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn runs(interactions: &[u64]) -> Table {
+        let mut t = Table::new("runs");
+        t.push(
+            "interactions",
+            Column::uints(interactions.iter().map(|&i| Some(i))),
+        );
+        t
+    }
+
+    #[test]
+    fn default_objectives_add_the_human_effort_only_when_it_varies() {
+        let names = |t: &Table| -> Vec<String> {
+            default_objectives(t)
+                .iter()
+                .map(ToString::to_string)
+                .collect()
+        };
+        let paper = [
+            "total_reward:max",
+            "cost_total:min",
+            "mean_entropy_chosen:min",
+        ];
+        assert_eq!(names(&runs(&[0, 0, 0])), paper);
+        assert_eq!(names(&Table::new("no such column")), paper);
+        assert_eq!(
+            names(&runs(&[0, 30, 50])),
+            [&paper[..], &["interactions:min"]].concat()
+        );
+    }
+
+    #[test]
+    fn groups_by_splits_on_every_by_column_and_names_a_missing_one() {
+        let mut t = runs(&[0, 30, 0, 30]);
+        t.push(
+            "interaction",
+            Column::texts(["none", "takeover", "none", "takeover"].map(Some)),
+        );
+        let groups = groups_by(&t, &["interaction".to_owned()]).unwrap();
+        assert_eq!(groups.len(), 2);
+        assert_eq!(
+            groups[1].0,
+            [("interaction".to_owned(), Value::Str("takeover".to_owned()))]
+        );
+        assert_eq!(groups[1].1.len(), 2);
+        // A by column with one value still names the group.
+        let one = groups_by(&t.take(&[0, 2]), &["interaction".to_owned()]).unwrap();
+        assert_eq!(one.len(), 1);
+        assert_eq!(one[0].0.len(), 1);
+        let e = groups_by(&t, &["interacton".to_owned()]).unwrap_err();
+        assert!(e.to_string().contains("did you mean 'interaction'"), "{e}");
+    }
+}
