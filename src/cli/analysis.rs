@@ -528,6 +528,7 @@ fn front_chart(
         y_label: axis(&first.objectives[0]),
         colour: colour.map(str::to_owned),
         panels: chart_panels,
+        join_front: first.objectives.len() == 2,
         log_x: lo > 0.0 && hi / lo >= 100.0,
         log_y: false,
     })

@@ -140,7 +140,12 @@ impl<'a> FrontFigure<'a> {
     fn entries(&self) -> Vec<(String, Swatch)> {
         let mut entries = Vec::new();
         if self.panels.iter().any(|p| !p.front.is_empty()) {
-            entries.push(("Pareto front".to_owned(), Swatch::LineDot(FRONT_INK)));
+            let swatch = if self.chart.join_front {
+                Swatch::LineDot(FRONT_INK)
+            } else {
+                Swatch::Ringed(FRONT_INK)
+            };
+            entries.push(("Pareto front".to_owned(), swatch));
         }
         if self.panels.iter().any(|p| p.panel.knee.is_some()) {
             entries.push(("knee".to_owned(), Swatch::Ring));
@@ -182,22 +187,22 @@ impl<'a> FrontFigure<'a> {
                 self.point_colour(panel, i).mix(0.9).filled(),
             )
         }))?;
-        if !data.front.is_empty() {
+        if c.join_front && !data.front.is_empty() {
             let line: Vec<(f64, f64)> = data.front.iter().map(|&i| points[i]).collect();
             chart.draw_series(std::iter::once(PathElement::new(
                 line,
                 FRONT_INK.stroke_width(2),
             )))?;
-            for &i in &data.front {
-                chart.draw_series([
-                    Circle::new(
-                        points[i],
-                        FRONT_RADIUS as u32,
-                        self.point_colour(panel, i).filled(),
-                    ),
-                    Circle::new(points[i], FRONT_RADIUS as u32, FRONT_INK.stroke_width(2)),
-                ])?;
-            }
+        }
+        for &i in &data.front {
+            chart.draw_series([
+                Circle::new(
+                    points[i],
+                    FRONT_RADIUS as u32,
+                    self.point_colour(panel, i).filled(),
+                ),
+                Circle::new(points[i], FRONT_RADIUS as u32, FRONT_INK.stroke_width(2)),
+            ])?;
         }
         let knee = panel.knee.filter(|&i| data.shown[i]);
         if let Some(i) = knee {
@@ -226,8 +231,12 @@ impl<'a> FrontFigure<'a> {
             };
             layout.markers.push(marker_box(pixel(i), radius + 1));
         }
-        let front_pixels: Vec<(i32, i32)> = data.front.iter().map(|&i| pixel(i)).collect();
-        let soft = polyline_boxes(&front_pixels, 1);
+        let soft = if c.join_front {
+            let front_pixels: Vec<(i32, i32)> = data.front.iter().map(|&i| pixel(i)).collect();
+            polyline_boxes(&front_pixels, 1)
+        } else {
+            Vec::new()
+        };
         // The knee's label first, then the others in order of x.
         let mut order: Vec<usize> = knee.into_iter().collect();
         order.extend(data.front.iter().copied().filter(|&i| Some(i) != knee));

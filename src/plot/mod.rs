@@ -296,6 +296,10 @@ pub struct FrontChart {
     pub colour: Option<String>,
     /// The panels, at least one, laid out in a grid in order.
     pub panels: Vec<FrontPanel>,
+    /// Join each front's points in order of x: right for a front over the two plotted
+    /// objectives; over more, the front seen in two of them zigzags, so its points are only
+    /// ringed.
+    pub join_front: bool,
     /// Logarithmic x axes: points with x <= 0 are left out.
     pub log_x: bool,
     /// Logarithmic y axes: points with y <= 0 are left out.

@@ -100,6 +100,8 @@ pub(super) enum Swatch {
     Dot(RGBColor),
     /// A line through a large dot.
     LineDot(RGBColor),
+    /// A dot in a ring (a front point not joined to the others).
+    Ringed(RGBColor),
     /// The knee marker.
     Ring,
 }
@@ -246,6 +248,9 @@ fn draw_swatch<DB: DrawingBackend>(
                 colour.stroke_width(2),
             ))?;
             area.draw(&Circle::new((mid, y), 5, colour.filled()))?;
+        }
+        Swatch::Ringed(colour) => {
+            area.draw(&Circle::new((mid, y), 6, colour.stroke_width(2)))?;
         }
         Swatch::Ring => {
             area.draw(&Circle::new((mid, y), 9, BLACK.stroke_width(2)))?;

@@ -504,6 +504,7 @@ fn crowded_front() -> FrontChart {
             front,
             knee: Some(20),
         }],
+        join_front: true,
         log_x: false,
         log_y: false,
     }
