@@ -61,56 +61,26 @@ impl<'a> FrontFigure<'a> {
         let mut panels = Vec::with_capacity(chart.panels.len());
         for (k, panel) in chart.panels.iter().enumerate() {
             let what = |part: &str| format!("panel {k} {part}");
-            let n = panel.points.len();
-            if n == 0 {
-                return Err(empty(figure, &what("points")));
-            }
-            let xs: Vec<f64> = panel.points.iter().map(|p| p.0).collect();
-            let ys: Vec<f64> = panel.points.iter().map(|p| p.1).collect();
-            check_values(figure, &what("x"), &xs, false)?;
-            check_values(figure, &what("y"), &ys, false)?;
-            for &i in &panel.front {
-                check_index(figure, &what("front"), i, n)?;
-            }
-            if let Some(i) = panel.knee {
-                check_index(figure, &what("knee"), i, n)?;
-            }
-            if !panel.labels.is_empty() {
-                check_len(figure, &what("labels"), n, panel.labels.len())?;
-            }
             if chart.colour.is_some() {
-                check_len(figure, &what("colour values"), n, panel.colour_values.len())?;
+                let (n, found) = (panel.points.len(), panel.colour_values.len());
+                check_len(figure, &what("colour values"), n, found)?;
             }
-            let shown: Vec<bool> = panel
-                .points
-                .iter()
-                .map(|&(x, y)| drawable(x, y, chart.log_x, chart.log_y))
-                .collect();
-            if !shown.contains(&true) {
-                return Err(no_positive(figure, &xs, chart.log_x));
-            }
-            let mut front: Vec<usize> = panel.front.iter().copied().filter(|&i| shown[i]).collect();
-            front.sort_by(|&a, &b| {
-                let (pa, pb) = (panel.points[a], panel.points[b]);
-                pa.0.total_cmp(&pb.0).then(pa.1.total_cmp(&pb.1))
-            });
-            front.dedup();
-            let visible = || {
-                panel
-                    .points
-                    .iter()
-                    .zip(&shown)
-                    .filter(|(_, s)| **s)
-                    .map(|(p, _)| *p)
-            };
-            let (x_min, x_max) = extent(visible().map(|p| p.0));
-            let (y_min, y_max) = extent(visible().map(|p| p.1));
+            let set = PointsWithFront::new(
+                figure,
+                what,
+                &panel.points,
+                &panel.front,
+                panel.knee,
+                panel.labels.len(),
+                chart.log_x,
+                chart.log_y,
+            )?;
             panels.push(PanelData {
                 panel,
-                shown,
-                front,
-                x: Axis::covering(x_min, x_max, chart.log_x, true),
-                y: Axis::covering(y_min, y_max, chart.log_y, true),
+                shown: set.shown,
+                front: set.front,
+                x: set.x,
+                y: set.y,
             });
         }
         let scale = chart.colour.as_ref().and_then(|_| {

@@ -16,47 +16,60 @@ pub(super) struct ScatterFigure<'a> {
     pub(super) y: Axis,
 }
 
-impl<'a> ScatterFigure<'a> {
-    pub(super) fn new(chart: &'a ScatterChart, figure: &str) -> Result<Self, PlotError> {
-        let n = chart.points.len();
+/// Points with a front (and a marked point), validated: which can be drawn, the front's
+/// drawable points in order of x, and axes covering the drawable points. `name` turns a part
+/// (`points`, `x`, `y`, `front`, `marked`, `labels`) into the name errors give it.
+pub(super) struct PointsWithFront {
+    pub(super) shown: Vec<bool>,
+    pub(super) front: Vec<usize>,
+    pub(super) x: Axis,
+    pub(super) y: Axis,
+}
+
+impl PointsWithFront {
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn new(
+        figure: &str,
+        name: impl Fn(&str) -> String,
+        points: &[(f64, f64)],
+        front: &[usize],
+        marked: Option<usize>,
+        labels: usize,
+        log_x: bool,
+        log_y: bool,
+    ) -> Result<Self, PlotError> {
+        let n = points.len();
         if n == 0 {
-            return Err(empty(figure, "point list"));
+            return Err(empty(figure, &name("points")));
         }
-        let xs: Vec<f64> = chart.points.iter().map(|p| p.0).collect();
-        let ys: Vec<f64> = chart.points.iter().map(|p| p.1).collect();
-        check_values(figure, "point x", &xs, false)?;
-        check_values(figure, "point y", &ys, false)?;
-        for &i in &chart.highlighted {
-            check_index(figure, "highlighted", i, n)?;
+        let xs: Vec<f64> = points.iter().map(|p| p.0).collect();
+        let ys: Vec<f64> = points.iter().map(|p| p.1).collect();
+        check_values(figure, &name("x"), &xs, false)?;
+        check_values(figure, &name("y"), &ys, false)?;
+        for &i in front {
+            check_index(figure, &name("front"), i, n)?;
         }
-        if let Some(i) = chart.marked {
-            check_index(figure, "marked", i, n)?;
+        if let Some(i) = marked {
+            check_index(figure, &name("marked"), i, n)?;
         }
-        if !chart.point_labels.is_empty() {
-            check_len(figure, "point_labels", n, chart.point_labels.len())?;
+        if labels > 0 {
+            check_len(figure, &name("labels"), n, labels)?;
         }
-        let shown: Vec<bool> = chart
-            .points
+        let shown: Vec<bool> = points
             .iter()
-            .map(|&(x, y)| drawable(x, y, chart.log_x, chart.log_y))
+            .map(|&(x, y)| drawable(x, y, log_x, log_y))
             .collect();
         if !shown.contains(&true) {
-            return Err(no_positive(figure, &xs, chart.log_x));
+            return Err(no_positive(figure, &xs, log_x));
         }
-        let mut front: Vec<usize> = chart
-            .highlighted
-            .iter()
-            .copied()
-            .filter(|&i| shown[i])
-            .collect();
+        let mut front: Vec<usize> = front.iter().copied().filter(|&i| shown[i]).collect();
         front.sort_by(|&a, &b| {
-            let (pa, pb) = (chart.points[a], chart.points[b]);
+            let (pa, pb) = (points[a], points[b]);
             pa.0.total_cmp(&pb.0).then(pa.1.total_cmp(&pb.1))
         });
         front.dedup();
         let visible = || {
-            chart
-                .points
+            points
                 .iter()
                 .zip(&shown)
                 .filter(|(_, s)| **s)
@@ -65,11 +78,43 @@ impl<'a> ScatterFigure<'a> {
         let (x_min, x_max) = extent(visible().map(|p| p.0));
         let (y_min, y_max) = extent(visible().map(|p| p.1));
         Ok(Self {
-            chart,
             shown,
             front,
-            x: Axis::covering(x_min, x_max, chart.log_x, true),
-            y: Axis::covering(y_min, y_max, chart.log_y, true),
+            x: Axis::covering(x_min, x_max, log_x, true),
+            y: Axis::covering(y_min, y_max, log_y, true),
+        })
+    }
+}
+
+impl<'a> ScatterFigure<'a> {
+    pub(super) fn new(chart: &'a ScatterChart, figure: &str) -> Result<Self, PlotError> {
+        let name = |part: &str| {
+            match part {
+                "points" => "point list",
+                "x" => "point x",
+                "y" => "point y",
+                "front" => "highlighted",
+                "labels" => "point_labels",
+                other => other,
+            }
+            .to_owned()
+        };
+        let set = PointsWithFront::new(
+            figure,
+            name,
+            &chart.points,
+            &chart.highlighted,
+            chart.marked,
+            chart.point_labels.len(),
+            chart.log_x,
+            chart.log_y,
+        )?;
+        Ok(Self {
+            chart,
+            shown: set.shown,
+            front: set.front,
+            x: set.x,
+            y: set.y,
         })
     }
 
