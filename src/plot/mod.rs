@@ -273,7 +273,8 @@ pub struct FrontPanel {
     /// With [`FrontChart::colour`], one value per point placing it on the colour scale (NaN:
     /// grey); otherwise ignored (may be empty).
     pub colour_values: Vec<f64>,
-    /// Indices into `points` of the front: ringed and joined in order of x.
+    /// Indices into `points` of the front: ringed (and joined in order of x with
+    /// [`FrontChart::join_front`]).
     pub front: Vec<usize>,
     /// Index into `points` of the knee: ringed wider and labelled "knee".
     pub knee: Option<usize>,
