@@ -219,9 +219,11 @@ fn pareto_front_holds_exactly_the_non_dominated_configurations_and_the_knee() {
         assert!(std::fs::metadata(&figure).unwrap().len() > 1000, "{ext}");
     }
     let svg = std::fs::read_to_string(dir.path().join("analysis/pareto.svg")).unwrap();
+    // Points are coloured by the swept kappa (named over the colour bar), so a label is the
+    // bare value.
     assert!(
-        svg.contains("knee") && svg.contains("kappa_coeff=2"),
-        "knee and labels drawn"
+        svg.contains("\nknee (2)\n") && svg.contains("\nkappa_coeff\n"),
+        "knee, labels and colour bar drawn"
     );
 }
 
@@ -1302,6 +1304,154 @@ fn pareto_gives_one_front_per_task_and_step_count() {
     ]);
     assert!(
         e.contains("invalid --objectives total_reward:max,total_reward:min: opposite objectives"),
+        "{e}"
+    );
+}
+
+/// EC at four kappas without a human and with takeover, two seeds each (reward r -+ 1).
+///
+/// Fronts by construction (maximise reward, minimise cost and entropy), per human:
+/// - none: kappas 1, 2, 3 (kappa 4 is dominated by all). Knee, normalised over the front
+///   (reward 10..30, cost 100..400, entropy 0.4..0.5): squared distances 2 (kappa 1), 1
+///   (kappa 2), 0.01 + 0.0278 + 0.25 = 0.288 (kappa 3): kappa 3.
+/// - takeover: kappas 1, 2, 4 (kappa 3 is dominated by 1 and 4). Knee (reward 40..50, cost
+///   50..100, entropy constant): 1 (kappa 1), 1 (kappa 2), 0.04 + 0.04 (kappa 4): kappa 4.
+///
+/// Pooled, takeover's front dominates every point without a human.
+fn human_runs() -> Vec<Run> {
+    let configs = [
+        (Interaction::None, 0, 1.0, 10.0, 100.0, 0.5),
+        (Interaction::None, 0, 2.0, 30.0, 400.0, 0.4),
+        (Interaction::None, 0, 3.0, 28.0, 150.0, 0.45),
+        (Interaction::None, 0, 4.0, 9.0, 500.0, 0.9),
+        (Interaction::Takeover, 50, 1.0, 50.0, 100.0, 0.2),
+        (Interaction::Takeover, 50, 2.0, 40.0, 50.0, 0.2),
+        (Interaction::Takeover, 50, 3.0, 45.0, 200.0, 0.3),
+        (Interaction::Takeover, 50, 4.0, 48.0, 60.0, 0.2),
+    ];
+    let mut runs = Vec::new();
+    for (interaction, budget, kappa, reward, cost, entropy) in configs {
+        let mut p = human(Controller::Ec, interaction, budget);
+        p.kappa_coeff = kappa;
+        for delta in [-1.0, 1.0] {
+            runs.push(Run {
+                params: p,
+                reward: reward + delta,
+                cost,
+                entropy: Some(entropy),
+            });
+        }
+    }
+    runs
+}
+
+#[test]
+fn pareto_by_gives_one_front_and_knee_per_group_in_the_table_the_json_and_the_figure() {
+    let dir = tempfile::tempdir().unwrap();
+    write_runs(&dir.path().join("runs.parquet"), &human_runs());
+    let d = dir.path().to_str().unwrap();
+    let stdout = run_ok(&["pareto", d, "--by", "interaction"]);
+    assert!(
+        stdout.contains("16 runs in 2 groups of interaction: one front per group"),
+        "{stdout}"
+    );
+    // The table carries the group column; one knee per group.
+    assert!(
+        has_row(
+            &stdout,
+            "none 3 2 28.00 ± 12.71 150.0 ± 0.0 0.4500 ± 0.0000 <- knee"
+        ),
+        "{stdout}"
+    );
+    assert!(
+        has_row(
+            &stdout,
+            "takeover 4 2 48.00 ± 12.71 60.00 ± 0.00 0.2000 ± 0.0000 <- knee"
+        ),
+        "{stdout}"
+    );
+    assert!(
+        stdout.contains("knee (suggested): kappa_coeff=3"),
+        "{stdout}"
+    );
+    assert!(
+        stdout.contains("knee (suggested): kappa_coeff=4"),
+        "{stdout}"
+    );
+
+    let table = dataset::read_parquet_file(&dir.path().join("analysis/pareto.parquet")).unwrap();
+    assert_eq!(table.len(), 8);
+    let interaction = table.column("interaction").unwrap();
+    let kappa = floats(&table, "kappa_coeff");
+    let (front, knee) = (bools(&table, "front"), bools(&table, "knee"));
+    let of = |human: &str, flags: &[bool]| -> Vec<f64> {
+        (0..8)
+            .filter(|&i| interaction.value(i) == Value::Str(human.to_owned()) && flags[i])
+            .map(|i| kappa[i].unwrap())
+            .collect()
+    };
+    assert_eq!(of("none", &front), [1.0, 2.0, 3.0]);
+    assert_eq!(of("takeover", &front), [1.0, 2.0, 4.0]);
+    assert_eq!(of("none", &knee), [3.0]);
+    assert_eq!(of("takeover", &knee), [4.0]);
+
+    // One figure, a panel per human, coloured by the swept kappa.
+    let svg =
+        std::fs::read_to_string(dir.path().join("analysis/pareto-by-interaction.svg")).unwrap();
+    for text in ["interaction=none", "interaction=takeover", "kappa_coeff"] {
+        assert!(
+            svg.contains(&format!("\n{text}\n")),
+            "the figure lacks {text}"
+        );
+    }
+
+    let json = run_ok(&["pareto", d, "--by", "interaction", "--json", "--no-plot"]);
+    let report: serde_json::Value = serde_json::from_str(&json).unwrap();
+    let groups = report["groups"].as_array().unwrap();
+    assert_eq!(groups.len(), 2);
+    for (group, human, knee) in [
+        (&groups[0], "none", "kappa_coeff=3"),
+        (&groups[1], "takeover", "kappa_coeff=4"),
+    ] {
+        assert_eq!(group["group"]["interaction"], human);
+        assert_eq!(group["knee"], knee);
+        let rows = group["front"].as_array().unwrap();
+        assert_eq!(rows.len(), 3);
+        assert!(rows.iter().all(|r| r["interaction"] == human), "{rows:?}");
+    }
+    // One group kept with --where still says which group it is.
+    let json = run_ok(&[
+        "pareto",
+        d,
+        "--by",
+        "interaction",
+        "--where",
+        "interaction=takeover",
+        "--json",
+        "--no-plot",
+    ]);
+    let report: serde_json::Value = serde_json::from_str(&json).unwrap();
+    assert_eq!(report["groups"][0]["group"]["interaction"], "takeover");
+
+    // Pooled, the front is takeover's alone: what --by is for.
+    let pooled = run_ok(&["pareto", d, "--json", "--no-plot"]);
+    let report: serde_json::Value = serde_json::from_str(&pooled).unwrap();
+    let rows = report["front"].as_array().unwrap();
+    assert_eq!(rows.len(), 3);
+    assert!(
+        rows.iter().all(|r| r["interaction"] == "takeover"),
+        "{rows:?}"
+    );
+
+    // Bad columns are usage errors naming the fix.
+    let e = run_usage_error(&["pareto", d, "--by", "interacton"]);
+    assert!(
+        e.contains("no column 'interacton' (did you mean 'interaction'?)"),
+        "{e}"
+    );
+    let e = run_usage_error(&["pareto", d, "--colour", "controller"]);
+    assert!(
+        e.contains("column 'controller' holds text") && e.contains("--colour needs numbers"),
         "{e}"
     );
 }

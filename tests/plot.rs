@@ -101,3 +101,111 @@ fn a_bad_metric_column_or_filter_exits_2_naming_it() {
         "no figure for a refused plot"
     );
 }
+
+#[test]
+fn plot_x_draws_response_curves_and_a_numeric_by_gets_a_colour_bar() {
+    let dir = tempfile::tempdir().unwrap();
+    let sweep = common::write_sweep(
+        dir.path(),
+        "kappa.toml",
+        "seeds = 3\n[fixed]\nsteps = 200\n[grid]\ncontroller = [\"mf\", \"ec\"]\n\
+         kappa_coeff = [1, 5, 9]\n",
+    );
+    let out = dir.path().join("kappa");
+    let d = out.to_str().unwrap();
+    let made = mbmf(&["sweep", &sweep, "--out", d, "--quiet"]);
+    assert!(made.status.success(), "{made:?}");
+
+    let output = mbmf(&[
+        "plot",
+        d,
+        "--x",
+        "kappa_coeff",
+        "--metric",
+        "total_reward",
+        "--by",
+        "controller",
+    ]);
+    assert!(output.status.success(), "{output:?}");
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    for group in ["ec", "mf"] {
+        assert!(
+            stdout.contains(&format!(
+                "controller={group}: 9 runs at 3 values of kappa_coeff"
+            )),
+            "{stdout}"
+        );
+    }
+    let svg =
+        std::fs::read_to_string(out.join("analysis/total_reward-vs-kappa_coeff-by-controller.svg"))
+            .unwrap();
+    for text in ["kappa_coeff", "total_reward (mean, 95% CI)", "ec", "mf"] {
+        assert!(
+            svg.contains(&format!("\n{text}\n")),
+            "the SVG lacks '{text}'"
+        );
+    }
+    // Without --by: one curve of every run; the metric defaults to total_reward.
+    let output = mbmf(&["plot", d, "--x", "kappa_coeff"]);
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(
+        stdout.contains("all runs: 18 runs at 3 values of kappa_coeff"),
+        "{stdout}"
+    );
+    assert!(
+        out.join("analysis/total_reward-vs-kappa_coeff.png")
+            .is_file()
+    );
+
+    // Curves over time grouped by a number: a colour bar, not a legend entry per value.
+    let output = mbmf(&["plot", d, "--by", "kappa_coeff"]);
+    assert!(output.status.success(), "{output:?}");
+    let svg = std::fs::read_to_string(out.join("analysis/cum_reward-by-kappa_coeff.svg")).unwrap();
+    assert!(svg.contains("\nkappa_coeff\n"), "no colour bar title");
+    assert!(!svg.contains("kappa_coeff=1"), "a legend entry per value");
+}
+
+#[test]
+fn plot_x_refuses_columns_that_are_not_numbers_naming_the_numeric_ones() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("run");
+    let d = out.to_str().unwrap();
+    run_quiet(
+        &out,
+        &["--controller", "mf", "--runs", "2", "--steps", "100"],
+    );
+    for (args, needles) in [
+        (
+            vec!["--x", "controller"],
+            vec![
+                "column 'controller' holds text, but --x needs a numeric column",
+                "numeric columns: ",
+            ],
+        ),
+        (
+            vec!["--x", "kappa_coeff", "--metric", "interaction"],
+            vec![
+                "--metric needs a numeric column",
+                "did you mean 'interactions'?",
+            ],
+        ),
+        (
+            vec!["--x", "kapa"],
+            vec!["no column 'kapa' (did you mean 'kappa_coeff'?)"],
+        ),
+        (vec![], vec!["--by"]),
+    ] {
+        let mut all = vec!["plot", d];
+        all.extend(args);
+        let output = mbmf(&all);
+        assert_eq!(output.status.code(), Some(2), "{all:?}: {output:?}");
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        for needle in needles {
+            assert!(stderr.contains(needle), "{all:?}: {stderr}");
+        }
+    }
+    assert!(
+        !out.join("analysis").exists(),
+        "no figure for a refused plot"
+    );
+}

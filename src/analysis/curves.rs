@@ -13,7 +13,7 @@ use std::path::Path;
 use crate::analysis::AnalysisError;
 use crate::analysis::dataset::{self, Filter, RUN_IDENTITY, ReadOptions, Table, Value};
 use crate::analysis::stats;
-use crate::plot::{LineChart, Series};
+use crate::plot::{LineChart, LineColours, Series};
 
 /// The series column a curve shows.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -70,6 +70,8 @@ impl CurveMetric {
 pub struct Curve {
     /// The group's value of the `--by` column, as text (`(none)` for an empty text).
     pub label: String,
+    /// That value as a number, when the `--by` column is numeric.
+    pub value: Option<f64>,
     /// Checkpoint steps, ascending.
     pub steps: Vec<u32>,
     /// Mean over runs at each step.
@@ -126,6 +128,7 @@ pub fn mean_curves(points: &[Point<'_>], order: &[String]) -> Vec<Curve> {
             let steps = acc.get(label.as_str())?;
             let mut curve = Curve {
                 label: label.clone(),
+                value: None,
                 steps: Vec::with_capacity(steps.len()),
                 mean: Vec::with_capacity(steps.len()),
                 sem: Vec::with_capacity(steps.len()),
@@ -251,8 +254,14 @@ pub fn curves_of(
             value: values[row],
         });
     }
-    let order: Vec<String> = groups.into_values().collect();
-    let curves = mean_curves(&points, &order);
+    let order: Vec<String> = groups.values().cloned().collect();
+    let mut curves = mean_curves(&points, &order);
+    for curve in &mut curves {
+        curve.value = groups
+            .iter()
+            .find(|(_, label)| **label == curve.label)
+            .and_then(|(value, _)| value.as_f64());
+    }
     if curves.is_empty() {
         return Err(AnalysisError::NothingToAnalyse {
             dataset: series.source().to_owned(),
@@ -279,6 +288,19 @@ fn key(table: &Table, identity: &[String], row: usize) -> Result<Vec<Value>, Ana
 }
 
 impl Curves {
+    /// How to colour the curves: by value on a colour scale when the groups are numbers (a
+    /// swept parameter), by label otherwise.
+    pub fn colours(&self) -> LineColours {
+        let values: Option<Vec<f64>> = self.curves.iter().map(|c| c.value).collect();
+        match values {
+            Some(values) => LineColours::Scale {
+                title: self.by.clone(),
+                values,
+            },
+            None => LineColours::Labels,
+        }
+    }
+
     /// A line chart of the curves: mean with a standard-error band per group, a vertical mark
     /// at each change step. `title` goes above the plot.
     pub fn chart(&self, title: &str) -> LineChart {
@@ -315,7 +337,13 @@ impl Curves {
 /// a name longer than 96 characters is cut and ends with a hash of the whole, so distinct
 /// filters never share a file.
 pub fn figure_name(metric: CurveMetric, by: &str, filters: &[Filter]) -> String {
-    let mut name = format!("{}-by-{by}", metric.column());
+    safe_name(&format!("{}-by-{by}", metric.column()), filters)
+}
+
+/// `stem`, then each filter as `-COLUMN-VALUE`, made safe for a file name (see
+/// [`figure_name`]).
+fn safe_name(stem: &str, filters: &[Filter]) -> String {
+    let mut name = stem.to_owned();
     for f in filters {
         name.push_str(&format!("-{}-{}", f.column, f.value));
     }
@@ -345,6 +373,11 @@ pub fn title(metric: CurveMetric, by: &str, filters: &[Filter]) -> String {
     if let Some((first, _)) = title.split_once(',') {
         title = format!("{first} by {by}");
     }
+    with_filters(title, filters)
+}
+
+/// `title`, then the filters in parentheses (long schedule paths shortened to their file).
+fn with_filters(mut title: String, filters: &[Filter]) -> String {
     if !filters.is_empty() {
         let texts: Vec<String> = filters
             .iter()
@@ -368,6 +401,210 @@ pub fn title(metric: CurveMetric, by: &str, filters: &[Filter]) -> String {
         title.push_str(&format!(" ({})", texts.join(", ")));
     }
     title
+}
+
+// ---------------------------------------------------------------------------------------------
+// Response curves: a runs-table metric against a swept parameter (`mbmf plot --x`)
+
+/// One group's response curve: at each value of the swept parameter, the mean of the metric
+/// over the group's runs with the half-width of its 95% Student-t confidence interval.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Response {
+    /// The group's value of the `--by` column as text (`all runs` without `--by`).
+    pub label: String,
+    /// That value as a number, when the `--by` column is numeric.
+    pub value: Option<f64>,
+    /// The swept parameter's values, ascending.
+    pub x: Vec<f64>,
+    /// Mean of the metric over the runs at each `x`.
+    pub mean: Vec<f64>,
+    /// Half-width of the 95% Student-t confidence interval of that mean (NaN below two runs).
+    pub ci95: Vec<f64>,
+    /// Runs with a value of the metric at each `x`.
+    pub n: Vec<usize>,
+}
+
+/// The response curves of a dataset, ready to draw.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Responses {
+    /// What was read.
+    pub source: String,
+    /// The swept parameter (x axis).
+    pub x: String,
+    /// The runs-table metric (y axis).
+    pub metric: String,
+    /// The grouping column, if any.
+    pub by: Option<String>,
+    /// One curve per group, in ascending order of the group value.
+    pub curves: Vec<Response>,
+}
+
+/// The numeric column `name` of the runs, for `flag`; a column holding something else is
+/// refused with the numeric columns and the closest of them.
+fn numeric_for(table: &Table, name: &str, flag: &str) -> Result<Vec<Option<f64>>, AnalysisError> {
+    let column = table.column(name)?;
+    if column.is_numeric() {
+        return Ok(table.numeric(name, flag)?);
+    }
+    let numeric = table.numeric_names();
+    Err(AnalysisError::NothingToAnalyse {
+        dataset: table.source().to_owned(),
+        reason: format!(
+            "column '{name}' holds {}, but {flag} needs a numeric column of the runs table;              {}numeric columns: {}",
+            column.type_name(),
+            crate::suggest::hint(name, numeric.iter().map(String::as_str)),
+            numeric.join(", ")
+        ),
+    })
+}
+
+/// Mean and 95% interval of `metric` at each value of `x`, per group of `by`, over the runs of
+/// `runs` (already filtered). Runs without a value of `x` or of the metric are left out.
+///
+/// # Errors
+/// A missing column, an `x` or metric column that is not numeric, or no run with both values.
+pub fn response_curves(
+    runs: &Table,
+    x: &str,
+    metric: &str,
+    by: Option<&str>,
+) -> Result<Responses, AnalysisError> {
+    let xs = numeric_for(runs, x, "--x")?;
+    let ys = numeric_for(runs, metric, "--metric")?;
+    let by_column = by.map(|b| runs.column(b)).transpose()?;
+    let mut groups: BTreeMap<Value, BTreeMap<u64, Vec<f64>>> = BTreeMap::new();
+    for row in 0..runs.len() {
+        let (Some(xv), Some(yv)) = (xs[row], ys[row]) else {
+            continue;
+        };
+        let group = by_column.map_or(Value::Null, |c| c.value(row));
+        // Keyed by the bits of a total-order-preserving map of x, so equal x values meet.
+        groups
+            .entry(group)
+            .or_default()
+            .entry(order_key(xv))
+            .or_default()
+            .push(yv);
+    }
+    let curves: Vec<Response> = groups
+        .into_iter()
+        .map(|(group, points)| {
+            let mut curve = Response {
+                label: match (&group, by) {
+                    (_, None) => "all runs".to_owned(),
+                    (Value::Str(s), _) if s.is_empty() => "(none)".to_owned(),
+                    (v, _) => v.to_string(),
+                },
+                value: group.as_f64(),
+                x: Vec::with_capacity(points.len()),
+                mean: Vec::with_capacity(points.len()),
+                ci95: Vec::with_capacity(points.len()),
+                n: Vec::with_capacity(points.len()),
+            };
+            for (key, values) in points {
+                curve.x.push(from_order_key(key));
+                curve.mean.push(stats::mean(&values));
+                curve.ci95.push(stats::ci95_half_width(&values));
+                curve.n.push(values.len());
+            }
+            curve
+        })
+        .collect();
+    if curves.is_empty() {
+        return Err(AnalysisError::NothingToAnalyse {
+            dataset: runs.source().to_owned(),
+            reason: format!("no run has a value of both {x} and {metric}"),
+        });
+    }
+    Ok(Responses {
+        source: runs.source().to_owned(),
+        x: x.to_owned(),
+        metric: metric.to_owned(),
+        by: by.map(str::to_owned),
+        curves,
+    })
+}
+
+/// A key that sorts as `v` does (`f64::total_cmp`), and its inverse.
+fn order_key(v: f64) -> u64 {
+    let bits = v.to_bits();
+    if bits >> 63 == 1 {
+        !bits
+    } else {
+        bits | 1 << 63
+    }
+}
+
+fn from_order_key(key: u64) -> f64 {
+    f64::from_bits(if key >> 63 == 1 {
+        key & !(1 << 63)
+    } else {
+        !key
+    })
+}
+
+impl Responses {
+    /// Whether the groups are values of a number (drawn on a colour scale).
+    pub fn numeric_groups(&self) -> bool {
+        self.by.is_some() && self.curves.iter().all(|c| c.value.is_some())
+    }
+
+    /// A line chart: per group, the mean against the swept parameter with its 95% band (no
+    /// band where a point has a single run), and how to colour the groups: by their value on a
+    /// colour scale when the groups are numbers, by label otherwise.
+    pub fn chart(&self, title: &str) -> (LineChart, LineColours) {
+        let by = self.by.as_deref().unwrap_or_default();
+        let series = self
+            .curves
+            .iter()
+            .map(|c| Series {
+                // A controller's name alone keeps its fixed colour.
+                label: match self.by.as_deref() {
+                    None | Some("controller") => c.label.clone(),
+                    Some(by) => format!("{by}={}", c.label),
+                },
+                x: c.x.clone(),
+                y: c.mean.clone(),
+                band: Some(
+                    c.ci95
+                        .iter()
+                        .map(|h| if h.is_finite() { *h } else { 0.0 })
+                        .collect(),
+                ),
+            })
+            .collect();
+        let colours = if self.numeric_groups() {
+            LineColours::Scale {
+                title: by.to_owned(),
+                values: self.curves.iter().filter_map(|c| c.value).collect(),
+            }
+        } else {
+            LineColours::Labels
+        };
+        let chart = LineChart {
+            title: title.to_owned(),
+            x_label: self.x.clone(),
+            y_label: format!("{} (mean, 95% CI)", self.metric),
+            series,
+            log_x: false,
+            log_y: false,
+            x_marks: Vec::new(),
+        };
+        (chart, colours)
+    }
+}
+
+/// The response figure's file name (no extension): `METRIC-vs-X[-by-BY]`, then the filters as
+/// in [`figure_name`].
+pub fn response_name(metric: &str, x: &str, by: Option<&str>, filters: &[Filter]) -> String {
+    let by = by.map(|b| format!("-by-{b}")).unwrap_or_default();
+    safe_name(&format!("{metric}-vs-{x}{by}"), filters)
+}
+
+/// The response figure's title: `METRIC against X[, by BY]`, then the filters as in [`title`].
+pub fn response_title(metric: &str, x: &str, by: Option<&str>, filters: &[Filter]) -> String {
+    let by = by.map(|b| format!(", by {b}")).unwrap_or_default();
+    with_filters(format!("{metric} against {x}{by}"), filters)
 }
 
 #[cfg(test)]
@@ -513,5 +750,123 @@ mod tests {
         assert_eq!(CurveMetric::parse("cum_cost"), Ok(CurveMetric::CumCost));
         let e = CurveMetric::parse("reward").unwrap_err();
         assert!(e.contains("'reward'") && e.contains("cum_reward"), "{e}");
+    }
+
+    /// Runs of a tiny sweep: kappa (x), a reward (metric) and the human (group).
+    fn sweep_runs() -> Table {
+        use crate::analysis::dataset::Column;
+        // Group "none": x=1 -> 1, 2, 3; x=2 -> 4, 8; x=3 -> 5 (one run). Group "takeover":
+        // x=1 -> 10, 10 (no spread). A run without a reward is left out.
+        let rows: [(&str, f64, Option<f64>); 9] = [
+            ("none", 1.0, Some(1.0)),
+            ("none", 2.0, Some(4.0)),
+            ("takeover", 1.0, Some(10.0)),
+            ("none", 1.0, Some(2.0)),
+            ("none", 3.0, Some(5.0)),
+            ("none", 2.0, Some(8.0)),
+            ("none", 1.0, Some(3.0)),
+            ("takeover", 1.0, Some(10.0)),
+            ("none", 3.0, None),
+        ];
+        let mut runs = Table::new("sweep");
+        runs.push("interaction", Column::texts(rows.iter().map(|r| Some(r.0))));
+        runs.push(
+            "kappa_coeff",
+            Column::floats(rows.iter().map(|r| Some(r.1))),
+        );
+        runs.push("total_reward", Column::floats(rows.iter().map(|r| r.2)));
+        runs
+    }
+
+    #[test]
+    fn response_curves_give_the_mean_and_t_interval_at_each_swept_value() {
+        let r = response_curves(
+            &sweep_runs(),
+            "kappa_coeff",
+            "total_reward",
+            Some("interaction"),
+        )
+        .unwrap();
+        assert_eq!(r.curves.len(), 2);
+        let (none, takeover) = (&r.curves[0], &r.curves[1]);
+        assert_eq!(none.label, "none");
+        assert_eq!(none.x, [1.0, 2.0, 3.0]);
+        assert_eq!(none.mean, [2.0, 6.0, 5.0]);
+        assert_eq!(none.n, [3, 2, 1]);
+        // x=1: sd 1, t(0.975, 2) = 0.95 / sqrt(2 * 0.975 * 0.025) (Student's t with two
+        // degrees of freedom in closed form), half-width t / sqrt(3).
+        let t2 = 0.95 / (2.0f64 * 0.975 * 0.025).sqrt();
+        let want = t2 / 3f64.sqrt();
+        assert!(
+            (none.ci95[0] - want).abs() < 1e-9 * want,
+            "{} vs {want}",
+            none.ci95[0]
+        );
+        // x=2: sd sqrt(8), sem 2, t(0.975, 1) = tan(0.475 pi) (the Cauchy quantile).
+        let want = 2.0 * (0.475 * std::f64::consts::PI).tan();
+        assert!(
+            (none.ci95[1] - want).abs() < 1e-9 * want,
+            "{} vs {want}",
+            none.ci95[1]
+        );
+        assert!(none.ci95[2].is_nan(), "no interval from one run");
+        assert_eq!(
+            (takeover.x.as_slice(), takeover.mean.as_slice()),
+            (&[1.0][..], &[10.0][..])
+        );
+        assert_eq!(takeover.ci95, [0.0]);
+
+        // The chart draws the band (0 where undefined) and colours text groups by label.
+        let (chart, colours) = r.chart("t");
+        assert_eq!(chart.series[0].label, "interaction=none");
+        assert_eq!(chart.series[0].band.as_ref().unwrap()[2], 0.0);
+        assert_eq!(chart.x_label, "kappa_coeff");
+        assert_eq!(colours, LineColours::Labels);
+
+        // Without --by: one curve of all runs; grouped by a number: a colour scale.
+        let all = response_curves(&sweep_runs(), "kappa_coeff", "total_reward", None).unwrap();
+        assert_eq!(all.curves.len(), 1);
+        assert_eq!(all.curves[0].mean[0], 26.0 / 5.0, "1, 2, 3, 10, 10");
+        let by_number = response_curves(
+            &sweep_runs(),
+            "total_reward",
+            "kappa_coeff",
+            Some("kappa_coeff"),
+        )
+        .unwrap();
+        assert!(matches!(by_number.chart("t").1, LineColours::Scale { .. }));
+    }
+
+    #[test]
+    fn response_curves_refuse_a_column_that_is_not_numeric_naming_the_numeric_ones() {
+        let e = response_curves(&sweep_runs(), "interaction", "total_reward", None)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("column 'interaction' holds text, but --x needs a numeric column")
+                && e.contains("numeric columns: kappa_coeff, total_reward"),
+            "{e}"
+        );
+        let e = response_curves(&sweep_runs(), "kappa_coeff", "interaction", None)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("--metric"), "{e}");
+        let e = response_curves(&sweep_runs(), "kappa", "total_reward", None)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("no column 'kappa' (did you mean 'kappa_coeff'?)"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn order_keys_sort_as_the_numbers_and_read_back() {
+        let values = [-2.5, -0.0, 0.0, 1e-300, 3.0, f64::INFINITY];
+        let keys: Vec<u64> = values.iter().map(|&v| order_key(v)).collect();
+        assert!(keys.windows(2).all(|w| w[0] < w[1]), "{keys:?}");
+        for v in values {
+            assert_eq!(from_order_key(order_key(v)).to_bits(), v.to_bits());
+        }
     }
 }

@@ -32,13 +32,28 @@ pub type ComparableGroup = (Vec<(String, Value)>, Table);
 /// task and step count present, in ascending order; the whole table, with no values, when
 /// neither varies.
 pub fn comparable_groups(table: &Table) -> Result<Vec<ComparableGroup>, AnalysisError> {
+    groups_by(table, &[])
+}
+
+/// The runs of `table` split by the [`INCOMPARABLE`] columns that vary in it and by every
+/// column of `by` (`mbmf pareto --by interaction`: one front per human), in ascending order of
+/// those values; each group carries its values of them, the `by` columns even when they take
+/// one value only. The whole table, with no values, when there is nothing to split by.
+///
+/// # Errors
+/// A `by` column the table lacks (the message lists the columns and the closest name).
+pub fn groups_by(table: &Table, by: &[String]) -> Result<Vec<ComparableGroup>, AnalysisError> {
+    for column in by {
+        table.column(column)?;
+    }
     let present: Vec<String> = INCOMPARABLE
         .iter()
-        .filter(|c| table.has(c))
+        .filter(|c| table.has(c) && !by.iter().any(|b| b == *c))
         .map(|c| (*c).to_owned())
         .collect();
     let all: Vec<usize> = (0..table.len()).collect();
-    let keys = varying_columns(table, &present, &all);
+    let mut keys = varying_columns(table, &present, &all);
+    keys.extend(by.iter().cloned());
     if keys.is_empty() {
         return Ok(vec![(Vec::new(), table.clone())]);
     }
@@ -51,6 +66,34 @@ pub fn comparable_groups(table: &Table) -> Result<Vec<ComparableGroup>, Analysis
             (values, table.take(&rows).renamed(source))
         })
         .collect())
+}
+
+/// The column of the human's effort, minimised by default when it varies.
+pub const HUMAN_EFFORT: &str = "interactions";
+
+/// The objectives used when none are given: [`DEFAULT_OBJECTIVES`], plus `interactions:min`
+/// when the runs' `interactions` take more than one value. A human's help is a cost like the
+/// computation: without it, a front over a sweep of humans or budgets calls the most helped
+/// configuration free. Where it does not vary it could not change the front, so the paper's
+/// three objectives stay alone.
+pub fn default_objectives(table: &Table) -> Vec<Objective> {
+    let mut objectives: Vec<Objective> = DEFAULT_OBJECTIVES
+        .split(',')
+        .map(|o| Objective::parse(o).expect("the default objectives parse"))
+        .collect();
+    let varies = table.numeric(HUMAN_EFFORT, "").is_ok_and(|values| {
+        let mut finite = values.into_iter().flatten();
+        finite
+            .next()
+            .is_some_and(|first| finite.any(|v| v != first))
+    });
+    if varies {
+        objectives.push(Objective {
+            name: HUMAN_EFFORT.to_owned(),
+            direction: Direction::Minimize,
+        });
+    }
+    objectives
 }
 
 /// Runs grouped by configuration, with every numeric result averaged over each group.
@@ -165,6 +208,36 @@ impl Configurations {
             .iter()
             .position(|k| k == name)
             .map(|i| &self.values[c][i])
+    }
+
+    /// The numeric configuration column that varies most (most distinct values; the first in
+    /// `keys` on a tie), the swept number a figure colours its points by; `None` when no
+    /// numeric column varies.
+    pub fn swept_number(&self) -> Option<&str> {
+        self.varying
+            .iter()
+            .filter_map(|name| {
+                let k = self.keys.iter().position(|k| k == name)?;
+                let mut values: Vec<f64> = self
+                    .values
+                    .iter()
+                    .map(|row| row[k].as_f64())
+                    .collect::<Option<_>>()?;
+                values.sort_by(f64::total_cmp);
+                values.dedup();
+                Some((values.len(), std::cmp::Reverse(k), name.as_str()))
+            })
+            .max()
+            .map(|(_, _, name)| name)
+    }
+
+    /// Configuration `c`'s value of `name`: a configuration column's value, or the mean of an
+    /// averaged result; `None` if it is neither or not a number.
+    pub fn number(&self, c: usize, name: &str) -> Option<f64> {
+        match self.key_value(c, name) {
+            Some(v) => v.as_f64(),
+            None => self.metric_index(name).map(|m| self.mean[c][m]),
+        }
     }
 
     /// A short label of configuration `c` from the varying columns: text values bare, others
@@ -326,5 +399,62 @@ impl Front {
             Column::bools((0..c.len()).map(|i| Some(self.knee == Some(i)))),
         );
         t
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn runs(interactions: &[u64]) -> Table {
+        let mut t = Table::new("runs");
+        t.push(
+            "interactions",
+            Column::uints(interactions.iter().map(|&i| Some(i))),
+        );
+        t
+    }
+
+    #[test]
+    fn default_objectives_add_the_human_effort_only_when_it_varies() {
+        let names = |t: &Table| -> Vec<String> {
+            default_objectives(t)
+                .iter()
+                .map(ToString::to_string)
+                .collect()
+        };
+        let paper = [
+            "total_reward:max",
+            "cost_total:min",
+            "mean_entropy_chosen:min",
+        ];
+        assert_eq!(names(&runs(&[0, 0, 0])), paper);
+        assert_eq!(names(&Table::new("no such column")), paper);
+        assert_eq!(
+            names(&runs(&[0, 30, 50])),
+            [&paper[..], &["interactions:min"]].concat()
+        );
+    }
+
+    #[test]
+    fn groups_by_splits_on_every_by_column_and_names_a_missing_one() {
+        let mut t = runs(&[0, 30, 0, 30]);
+        t.push(
+            "interaction",
+            Column::texts(["none", "takeover", "none", "takeover"].map(Some)),
+        );
+        let groups = groups_by(&t, &["interaction".to_owned()]).unwrap();
+        assert_eq!(groups.len(), 2);
+        assert_eq!(
+            groups[1].0,
+            [("interaction".to_owned(), Value::Str("takeover".to_owned()))]
+        );
+        assert_eq!(groups[1].1.len(), 2);
+        // A by column with one value still names the group.
+        let one = groups_by(&t.take(&[0, 2]), &["interaction".to_owned()]).unwrap();
+        assert_eq!(one.len(), 1);
+        assert_eq!(one[0].0.len(), 1);
+        let e = groups_by(&t, &["interacton".to_owned()]).unwrap_err();
+        assert!(e.to_string().contains("did you mean 'interaction'"), "{e}");
     }
 }

@@ -11,10 +11,10 @@ use super::{Failure, runtime, usage};
 use crate::analysis::AnalysisError;
 use crate::analysis::compare::{self, Comparison};
 use crate::analysis::dataset::{self, Filter, Table, Value};
-use crate::analysis::front::{self, DEFAULT_OBJECTIVES, Front};
+use crate::analysis::front::{self, Front};
 use crate::analysis::min_budget::{self, DEFAULT_ALPHA, Level, MinBudget};
 use crate::analysis::pareto::{Direction, Objective};
-use crate::plot::{self, ScatterChart};
+use crate::plot::{self, FrontChart, FrontPanel};
 
 /// The dataset an analysis reads, and the runs it keeps.
 #[derive(Debug, Clone, Args)]
@@ -49,18 +49,27 @@ pub fn warn(warnings: &[String]) {
 
 /// `mbmf pareto`.
 #[derive(Debug, Clone, Args)]
-#[command(
-    after_help = "Example: mbmf pareto out/kappa --objectives total_reward:max,cost_total:min"
-)]
+#[command(after_help = "Examples:
+  mbmf pareto out/kappa --objectives total_reward:max,cost_total:min
+  mbmf pareto out/kappa --by interaction        # one front and knee per human type, a panel each")]
 pub struct ParetoArgs {
     /// The dataset and the runs kept.
     #[command(flatten)]
     pub data: Dataset,
-    /// Objectives as NAME:max or NAME:min, comma-separated; any numeric column of the runs.
-    /// Default: the paper's reward, inference cost and learning quality (entropy of the
-    /// controlling expert, lower is better).
-    #[arg(long, value_delimiter = ',', default_value = DEFAULT_OBJECTIVES, value_parser = Objective::parse)]
-    pub objectives: Vec<Objective>,
+    /// Objectives as NAME:max or NAME:min, comma-separated; any numeric column of the runs
+    /// (e.g. interactions:min, the human's effort). Default: the paper's reward, inference cost
+    /// and learning quality (entropy of the controlling expert, lower is better), plus
+    /// interactions:min when the number of interactions varies in the runs.
+    #[arg(long, value_delimiter = ',', value_parser = Objective::parse)]
+    pub objectives: Option<Vec<Objective>>,
+    /// One front and one knee per value of this column (repeatable, or comma-separated: one
+    /// per combination), e.g. --by interaction; the figure gets a panel per group.
+    #[arg(long, value_name = "COLUMN", value_delimiter = ',')]
+    pub by: Vec<String>,
+    /// Numeric column the figure colours points by (default: the swept numeric parameter with
+    /// the most values, e.g. kappa_coeff).
+    #[arg(long, visible_alias = "color", value_name = "COLUMN")]
+    pub colour: Option<String>,
     /// Folder for pareto.parquet, pareto.svg and pareto.png (default: analysis/ in the dataset's
     /// folder, beside the data files, never among them).
     #[arg(long)]
@@ -164,22 +173,35 @@ fn analysis_failure(e: AnalysisError) -> Failure {
 }
 
 /// Runs `mbmf pareto`: one front per task and step count in the data (rewards of different
-/// tasks or lengths cannot be compared), so a dataset of one task and length gives one front.
+/// tasks or lengths cannot be compared) and per value of the `--by` columns, so a dataset of
+/// one task and length without `--by` gives one front.
 pub fn pareto(args: &ParetoArgs) -> Result<(), Failure> {
     let (folder, table) = load_for_output(&args.data, args.out.as_deref())?;
-    let groups = front::comparable_groups(&table).map_err(analysis_failure)?;
+    if let Some(colour) = &args.colour {
+        table.numeric(colour, "--colour").map_err(usage)?;
+    }
+    let objectives = match &args.objectives {
+        Some(objectives) => objectives.clone(),
+        None => front::default_objectives(&table),
+    };
+    let groups = front::groups_by(&table, &args.by).map_err(analysis_failure)?;
     let fronts: Vec<(&[(String, Value)], Front)> = groups
         .iter()
-        .map(|(values, runs)| Ok((values.as_slice(), Front::compute(runs, &args.objectives)?)))
+        .map(|(values, runs)| Ok((values.as_slice(), Front::compute(runs, &objectives)?)))
         .collect::<Result<_, AnalysisError>>()
         .map_err(analysis_failure)?;
     let runs_of = |g: usize| groups[g].1.len();
     if !args.json {
         if fronts.len() > 1 {
             let keys: Vec<&str> = fronts[0].0.iter().map(|(k, _)| k.as_str()).collect();
+            let why = if args.by.is_empty() {
+                ", whose results cannot be compared with each other"
+            } else {
+                ""
+            };
             outln!(
-                "{}: {} runs in {} groups of {}, whose results cannot be compared with each \
-                 other: one front per group (or keep one with --where {}=VALUE)",
+                "{}: {} runs in {} groups of {}{why}: one front per group (or keep one with \
+                 --where {}=VALUE)",
                 table.source(),
                 table.len(),
                 fronts.len(),
@@ -187,11 +209,11 @@ pub fn pareto(args: &ParetoArgs) -> Result<(), Failure> {
                 keys[0]
             );
         }
-        for (g, (_, front)) in fronts.iter().enumerate() {
+        for (g, (values, front)) in fronts.iter().enumerate() {
             if fronts.len() > 1 {
                 outln!();
             }
-            print_front(front, runs_of(g));
+            print_front(front, values, runs_of(g));
         }
     }
     let path = if let [(_, front)] = fronts.as_slice() {
@@ -204,20 +226,40 @@ pub fn pareto(args: &ParetoArgs) -> Result<(), Failure> {
     };
     let mut written = vec![path];
     if !args.no_plot {
-        for (values, front) in &fronts {
-            let name = std::iter::once("pareto".to_owned())
-                .chain(values.iter().map(|(_, v)| file_safe(&v.to_string())))
-                .collect::<Vec<_>>()
-                .join("-");
-            let chart = front_chart(front).map(|mut chart| {
-                if !values.is_empty() {
-                    chart.title = format!("{}, {}", chart.title, group_label(values));
+        let colour = args.colour.clone().or_else(|| {
+            fronts
+                .iter()
+                .find_map(|(_, f)| f.configs.swept_number().map(str::to_owned))
+        });
+        // With --by, the groups are what the reader compares: one figure, a panel each.
+        // Otherwise they are tasks or lengths that cannot be compared: a figure each.
+        let figures: Vec<Vec<usize>> = if args.by.is_empty() {
+            (0..fronts.len()).map(|g| vec![g]).collect()
+        } else {
+            vec![(0..fronts.len()).collect()]
+        };
+        for members in figures {
+            let name = if args.by.is_empty() {
+                std::iter::once("pareto".to_owned())
+                    .chain(
+                        fronts[members[0]]
+                            .0
+                            .iter()
+                            .map(|(_, v)| file_safe(&v.to_string())),
+                    )
+                    .collect::<Vec<_>>()
+                    .join("-")
+            } else {
+                format!("pareto-by-{}", file_safe(&args.by.join("-")))
+            };
+            let panels: Vec<(String, &Front)> = members
+                .iter()
+                .map(|&g| (group_label(fronts[g].0), &fronts[g].1))
+                .collect();
+            match front_chart(&panels, colour.as_deref(), args.by.is_empty()) {
+                Some(chart) => {
+                    written.extend(plot::front_chart(&chart, &folder.join(name)).map_err(runtime)?)
                 }
-                chart
-            });
-            match chart {
-                Some(chart) => written
-                    .extend(plot::scatter_chart(&chart, &folder.join(name)).map_err(runtime)?),
                 None => eprintln!("note: no figure: it needs two objectives with finite means"),
             }
         }
@@ -225,7 +267,7 @@ pub fn pareto(args: &ParetoArgs) -> Result<(), Failure> {
     let shown: Vec<String> = written.iter().map(|p| p.display().to_string()).collect();
     if args.json {
         let json = match fronts.as_slice() {
-            [(_, front)] => front_json(front, table.len(), &shown),
+            [(_, front)] if args.by.is_empty() => front_json(front, &[], table.len(), &shown),
             _ => grouped_json(&fronts, &table, &shown, runs_of),
         };
         outln!("{json}");
@@ -267,7 +309,7 @@ fn grouped_json(
         .iter()
         .enumerate()
         .map(|(g, (values, front))| {
-            let mut report = front_json(front, runs_of(g), &[]);
+            let mut report = front_json(front, values, runs_of(g), &[]);
             if let Some(map) = report.as_object_mut() {
                 map.remove("verb");
                 map.remove("files");
@@ -296,14 +338,23 @@ fn grouped_json(
     })
 }
 
-/// The `--json` report of `mbmf pareto`: one row per front member, in the table's order.
-fn front_json(front: &Front, runs: usize, files: &[String]) -> serde_json::Value {
+/// The `--json` report of `mbmf pareto`: one row per front member, in the table's order, each
+/// starting with the group's values.
+fn front_json(
+    front: &Front,
+    group: &[(String, Value)],
+    runs: usize,
+    files: &[String],
+) -> serde_json::Value {
     let c = &front.configs;
     let rows: Vec<serde_json::Value> = front
         .members()
         .iter()
         .map(|&i| {
             let mut row = serde_json::Map::new();
+            for (k, v) in group {
+                row.insert(k.clone(), serde_json::json!(v.to_string()));
+            }
             for k in &c.varying {
                 let value = c.key_value(i, k).map(|v| v.to_string());
                 row.insert(k.clone(), serde_json::json!(value));
@@ -336,7 +387,7 @@ fn front_json(front: &Front, runs: usize, files: &[String]) -> serde_json::Value
     })
 }
 
-fn print_front(front: &Front, runs: usize) {
+fn print_front(front: &Front, group: &[(String, Value)], runs: usize) {
     let c = &front.configs;
     let objectives: Vec<String> = front.objectives.iter().map(|o| o.to_string()).collect();
     let members = front.members();
@@ -353,7 +404,8 @@ fn print_front(front: &Front, runs: usize) {
             "({unranked} configurations lack a mean of some objective and are left out of the ranking)"
         );
     }
-    let mut headers: Vec<String> = c.varying.clone();
+    let mut headers: Vec<String> = group.iter().map(|(k, _)| k.clone()).collect();
+    headers.extend(c.varying.iter().cloned());
     headers.push("n".to_owned());
     for o in &front.objectives {
         headers.push(format!("{} ({})", o.name, o.direction));
@@ -361,11 +413,12 @@ fn print_front(front: &Front, runs: usize) {
     headers.push("knee".to_owned());
     let mut rows = Vec::new();
     for &i in &members {
-        let mut row: Vec<String> = c
-            .varying
-            .iter()
-            .map(|k| c.key_value(i, k).map(|v| v.to_string()).unwrap_or_default())
-            .collect();
+        let mut row: Vec<String> = group.iter().map(|(_, v)| v.to_string()).collect();
+        row.extend(
+            c.varying
+                .iter()
+                .map(|k| c.key_value(i, k).map(|v| v.to_string()).unwrap_or_default()),
+        );
         row.push(c.rows[i].len().to_string());
         for o in 0..front.objectives.len() {
             row.push(mean_ci(
@@ -376,7 +429,7 @@ fn print_front(front: &Front, runs: usize) {
         row.push(if front.knee == Some(i) { "<- knee" } else { "" }.to_owned());
         rows.push(row);
     }
-    let left = c.varying.len();
+    let left = group.len() + c.varying.len();
     let last = headers.len() - 1;
     out!(
         "{}",
@@ -392,30 +445,71 @@ fn print_front(front: &Front, runs: usize) {
     }
 }
 
-/// The figure of a front: the second objective across, the first up.
-fn front_chart(front: &Front) -> Option<ScatterChart> {
-    if front.objectives.len() < 2 {
+/// The figure of fronts, a panel per `(title, front)`: the second objective across, the first
+/// up, points coloured by `colour` (a configuration column or an averaged result), front
+/// points labelled. `None` with fewer than two objectives or no point with finite means.
+fn front_chart(
+    panels: &[(String, &Front)],
+    colour: Option<&str>,
+    title_group: bool,
+) -> Option<FrontChart> {
+    let first = panels.first()?.1;
+    if first.objectives.len() < 2 {
         return None;
     }
-    let c = &front.configs;
-    let shown: Vec<usize> = (0..c.len())
-        .filter(|&i| {
-            front.objective_mean(i, 0).is_finite() && front.objective_mean(i, 1).is_finite()
-        })
-        .collect();
-    if shown.is_empty() {
+    let mut chart_panels = Vec::with_capacity(panels.len());
+    let mut xs = Vec::new();
+    let mut configurations = 0;
+    for (title, front) in panels {
+        let c = &front.configs;
+        configurations += c.len();
+        let shown: Vec<usize> = (0..c.len())
+            .filter(|&i| {
+                front.objective_mean(i, 0).is_finite() && front.objective_mean(i, 1).is_finite()
+            })
+            .collect();
+        if shown.is_empty() {
+            continue;
+        }
+        let points: Vec<(f64, f64)> = shown
+            .iter()
+            .map(|&i| (front.objective_mean(i, 1), front.objective_mean(i, 0)))
+            .collect();
+        xs.extend(points.iter().map(|p| p.0));
+        let position = |i: usize| shown.iter().position(|&s| s == i);
+        // The colour bar names the column, so a point swept along it alone shows its value.
+        let bare = colour.filter(|name| c.varying.len() == 1 && c.varying[0] == *name);
+        let labels = shown
+            .iter()
+            .map(|&i| match bare.and_then(|name| c.key_value(i, name)) {
+                Some(v) => v.to_string(),
+                None => c.label(i),
+            })
+            .collect();
+        chart_panels.push(FrontPanel {
+            title: if title_group {
+                String::new()
+            } else {
+                title.clone()
+            },
+            points,
+            colour_values: colour.map_or_else(Vec::new, |name| {
+                shown
+                    .iter()
+                    .map(|&i| c.number(i, name).unwrap_or(f64::NAN))
+                    .collect()
+            }),
+            front: (0..c.len())
+                .filter(|&i| front.rank[i] == Some(0))
+                .filter_map(position)
+                .collect(),
+            knee: front.knee.and_then(position),
+            labels,
+        });
+    }
+    if chart_panels.is_empty() {
         return None;
     }
-    let points: Vec<(f64, f64)> = shown
-        .iter()
-        .map(|&i| (front.objective_mean(i, 1), front.objective_mean(i, 0)))
-        .collect();
-    let position = |i: usize| shown.iter().position(|&s| s == i);
-    let highlighted = (0..c.len())
-        .filter(|&i| front.rank[i] == Some(0))
-        .filter_map(position)
-        .collect();
-    let xs: Vec<f64> = points.iter().map(|p| p.0).collect();
     let lo = xs.iter().copied().fold(f64::INFINITY, f64::min);
     let hi = xs.iter().copied().fold(f64::NEG_INFINITY, f64::max);
     let axis = |o: &Objective| {
@@ -425,19 +519,22 @@ fn front_chart(front: &Front) -> Option<ScatterChart> {
         };
         format!("{} (mean; {better})", o.name)
     };
-    let extra = if front.objectives.len() > 2 {
-        format!(", front over {} objectives", front.objectives.len())
+    let extra = if first.objectives.len() > 2 {
+        format!(", front over {} objectives", first.objectives.len())
     } else {
         String::new()
     };
-    Some(ScatterChart {
-        title: format!("Pareto front ({} configurations{extra})", c.len()),
-        x_label: axis(&front.objectives[1]),
-        y_label: axis(&front.objectives[0]),
-        points,
-        highlighted,
-        marked: front.knee.and_then(position),
-        point_labels: shown.iter().map(|&i| c.label(i)).collect(),
+    let mut title = format!("Pareto front ({configurations} configurations{extra})");
+    if title_group && !panels[0].0.is_empty() {
+        title = format!("{title}, {}", panels[0].0);
+    }
+    Some(FrontChart {
+        title,
+        x_label: axis(&first.objectives[1]),
+        y_label: axis(&first.objectives[0]),
+        colour: colour.map(str::to_owned),
+        panels: chart_panels,
+        join_front: first.objectives.len() == 2,
         log_x: lo > 0.0 && hi / lo >= 100.0,
         log_y: false,
     })

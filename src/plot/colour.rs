@@ -114,3 +114,66 @@ pub(super) fn label_colours<S: AsRef<str>>(labels: &[S]) -> Vec<RGBColor> {
         })
         .collect()
 }
+
+/// Viridis (van der Walt and Smith, matplotlib's default map) at eleven evenly spaced stops:
+/// perceptually uniform, readable in grey and by colour-blind readers, so equal steps of a
+/// swept number look like equal steps of colour.
+pub(super) const VIRIDIS: [RGBColor; 11] = [
+    RGBColor(68, 1, 84),
+    RGBColor(72, 36, 117),
+    RGBColor(65, 68, 135),
+    RGBColor(53, 95, 141),
+    RGBColor(42, 120, 142),
+    RGBColor(33, 145, 140),
+    RGBColor(34, 168, 132),
+    RGBColor(68, 191, 112),
+    RGBColor(122, 209, 81),
+    RGBColor(189, 223, 38),
+    RGBColor(253, 231, 37),
+];
+
+/// Viridis at `t` in [0, 1] (clamped; NaN gives the low end), linear between the stops.
+pub(super) fn viridis(t: f64) -> RGBColor {
+    let t = if t.is_nan() { 0.0 } else { t.clamp(0.0, 1.0) };
+    let last = VIRIDIS.len() - 1;
+    let position = t * last as f64;
+    let k = (position.floor() as usize).min(last - 1);
+    let f = position - k as f64;
+    let (RGBColor(r0, g0, b0), RGBColor(r1, g1, b1)) = (VIRIDIS[k], VIRIDIS[k + 1]);
+    let mix = |a: u8, b: u8| (f64::from(a) + (f64::from(b) - f64::from(a)) * f).round() as u8;
+    RGBColor(mix(r0, r1), mix(g0, g1), mix(b0, b1))
+}
+
+/// Where viridis stops for data: its last tenth, a pale yellow, is hard to see on white.
+pub(super) const SCALE_TOP: f64 = 0.9;
+
+/// A numeric value's place on a colour scale over `lo..=hi`: viridis from its dark end (`lo`)
+/// to [`SCALE_TOP`] (`hi`); a scale of one value takes the middle colour.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) struct ValueScale {
+    pub(super) lo: f64,
+    pub(super) hi: f64,
+}
+
+impl ValueScale {
+    /// The scale spanning the finite `values` (`None` when there is none).
+    pub(super) fn spanning(values: &[f64]) -> Option<ValueScale> {
+        let finite = values.iter().copied().filter(|v| v.is_finite());
+        let (lo, hi) = extent(finite);
+        (lo <= hi).then_some(ValueScale { lo, hi })
+    }
+
+    /// Position of `v` on the viridis map, in [0, SCALE_TOP].
+    pub(super) fn position(&self, v: f64) -> f64 {
+        if self.hi > self.lo {
+            ((v - self.lo) / (self.hi - self.lo)).clamp(0.0, 1.0) * SCALE_TOP
+        } else {
+            SCALE_TOP / 2.0
+        }
+    }
+
+    /// The colour of `v`.
+    pub(super) fn colour(&self, v: f64) -> RGBColor {
+        viridis(self.position(v))
+    }
+}

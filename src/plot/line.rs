@@ -13,6 +13,8 @@ pub(super) struct LineSeries {
 pub(super) struct LineFigure<'a> {
     pub(super) chart: &'a LineChart,
     pub(super) series: Vec<LineSeries>,
+    /// The colour scale and its title, when the series are coloured by a number.
+    pub(super) scale: Option<(ValueScale, String, Vec<f64>)>,
     pub(super) x: Axis,
     pub(super) y: Axis,
 }
@@ -22,6 +24,14 @@ pub(super) const MARKER_LIMIT: usize = 25;
 
 impl<'a> LineFigure<'a> {
     pub(super) fn new(chart: &'a LineChart, figure: &str) -> Result<Self, PlotError> {
+        Self::with_colours(chart, &LineColours::Labels, figure)
+    }
+
+    pub(super) fn with_colours(
+        chart: &'a LineChart,
+        colours: &LineColours,
+        figure: &str,
+    ) -> Result<Self, PlotError> {
         if chart.series.is_empty() {
             return Err(empty(figure, "series list"));
         }
@@ -39,8 +49,20 @@ impl<'a> LineFigure<'a> {
             }
         }
         check_values(figure, "x_marks", &chart.x_marks, false)?;
-        let labels: Vec<&str> = chart.series.iter().map(|s| s.label.as_str()).collect();
-        let colours = label_colours(&labels);
+        let (colours, scale) = match colours {
+            LineColours::Labels => {
+                let labels: Vec<&str> = chart.series.iter().map(|s| s.label.as_str()).collect();
+                (label_colours(&labels), None)
+            }
+            LineColours::Scale { title, values } => {
+                check_len(figure, "colour values", chart.series.len(), values.len())?;
+                check_values(figure, "colour values", values, false)?;
+                let scale =
+                    ValueScale::spanning(values).ok_or_else(|| empty(figure, "colour values"))?;
+                let colours = values.iter().map(|&v| scale.colour(v)).collect();
+                (colours, Some((scale, title.clone(), values.clone())))
+            }
+        };
         let series: Vec<LineSeries> = chart
             .series
             .iter()
@@ -74,6 +96,7 @@ impl<'a> LineFigure<'a> {
         Ok(Self {
             chart,
             series,
+            scale,
             x: Axis::covering(x_min, x_max, chart.log_x, true),
             y: Axis::covering(y_min, y_max, chart.log_y, true),
         })
@@ -94,7 +117,14 @@ impl Figure for LineFigure<'_> {
             })
             .collect();
         let c = self.chart;
-        let (plot_area, legend_area) = plot_and_legend(root, &c.title, &entries)?;
+        let (plot_area, legend_area) = match &self.scale {
+            None => plot_and_legend(root, &c.title, &entries)?,
+            Some((scale, title, _)) => {
+                let area = titled_area(root, &c.title)?;
+                let width = colour_bar_width(&area, *scale, title)?;
+                split_for_legend(&area, width)
+            }
+        };
         let mut chart = xy_chart(&plot_area, self.x, self.y, &c.x_label, &c.y_label)?;
         for &x in &self.chart.x_marks {
             if x >= self.x.lo && x <= self.x.hi {
@@ -104,6 +134,10 @@ impl Figure for LineFigure<'_> {
                 )))?;
             }
         }
+        // Tens of curves (a swept parameter): lighter bands and no markers, or the bands
+        // bury each other and the markers hide the lines.
+        let crowded = self.series.len() > LEGEND_MAX;
+        let band_alpha = if crowded { 0.07 } else { 0.18 };
         for s in &self.series {
             if let Some(band) = &s.band {
                 if band.len() >= 2 {
@@ -114,7 +148,7 @@ impl Figure for LineFigure<'_> {
                         .collect();
                     chart.draw_series(std::iter::once(Polygon::new(
                         outline,
-                        s.colour.mix(0.18).filled(),
+                        s.colour.mix(band_alpha).filled(),
                     )))?;
                 } else if let Some(&(x, lo, hi)) = band.first() {
                     chart.draw_series(std::iter::once(PathElement::new(
@@ -129,7 +163,7 @@ impl Figure for LineFigure<'_> {
                 s.points.clone(),
                 s.colour.stroke_width(2),
             )))?;
-            if s.points.len() <= MARKER_LIMIT {
+            if s.points.len() <= MARKER_LIMIT && !crowded {
                 chart.draw_series(
                     s.points
                         .iter()
@@ -137,6 +171,11 @@ impl Figure for LineFigure<'_> {
                 )?;
             }
         }
-        draw_legend(&legend_area, &entries, 30)
+        match &self.scale {
+            None => draw_legend(&legend_area, &entries, 30),
+            Some((scale, title, values)) => {
+                draw_colour_bar(&legend_area, *scale, title, values, 30).map(|_| ())
+            }
+        }
     }
 }

@@ -46,8 +46,10 @@ use thiserror::Error;
 mod axis;
 mod bar;
 mod colour;
+mod front;
 mod line;
 mod panel;
+mod place;
 mod render;
 mod scatter;
 #[cfg(test)]
@@ -57,6 +59,7 @@ mod text;
 use axis::*;
 use bar::*;
 use colour::*;
+use front::*;
 use line::*;
 use panel::DrawResult;
 use panel::*;
@@ -258,6 +261,92 @@ pub struct ScatterChart {
     pub log_x: bool,
     /// Logarithmic y axis: points with y <= 0 are left out.
     pub log_y: bool,
+}
+
+/// One panel of a [`FrontChart`]: the configurations of one group, on their own axes.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FrontPanel {
+    /// Text above the panel (e.g. `interaction=takeover`; may be empty).
+    pub title: String,
+    /// All points `(x, y)`, at least one.
+    pub points: Vec<(f64, f64)>,
+    /// With [`FrontChart::colour`], one value per point placing it on the colour scale (NaN:
+    /// grey); otherwise ignored (may be empty).
+    pub colour_values: Vec<f64>,
+    /// Indices into `points` of the front: ringed (and joined in order of x with
+    /// [`FrontChart::join_front`]).
+    pub front: Vec<usize>,
+    /// Index into `points` of the knee: ringed wider and labelled "knee".
+    pub knee: Option<usize>,
+    /// Either empty or one text per point; front points are labelled where a label fits
+    /// without covering another label or a point, and left unlabelled otherwise.
+    pub labels: Vec<String>,
+}
+
+/// Pareto fronts, one panel per group, sharing a colour scale.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FrontChart {
+    /// Title above the panels (may be empty).
+    pub title: String,
+    /// Text under each panel's x axis.
+    pub x_label: String,
+    /// Text beside each panel's y axis.
+    pub y_label: String,
+    /// Name of the number the points' `colour_values` hold, shown over a colour bar (viridis,
+    /// shared by every panel); `None` draws every point grey.
+    pub colour: Option<String>,
+    /// The panels, at least one, laid out in a grid in order.
+    pub panels: Vec<FrontPanel>,
+    /// Join each front's points in order of x: right for a front over the two plotted
+    /// objectives; over more, the front seen in two of them zigzags, so its points are only
+    /// ringed.
+    pub join_front: bool,
+    /// Logarithmic x axes: points with x <= 0 are left out.
+    pub log_x: bool,
+    /// Logarithmic y axes: points with y <= 0 are left out.
+    pub log_y: bool,
+}
+
+/// How the curves of a [`LineChart`] are coloured.
+#[derive(Debug, Clone, PartialEq)]
+pub enum LineColours {
+    /// By label (controllers keep their colours), with a legend of at most a few entries and
+    /// `+N more` for the rest.
+    Labels,
+    /// By a number per series on a continuous colour scale (viridis) with a colour bar titled
+    /// `title` in place of the legend: for a swept parameter, where a legend of tens of values
+    /// could not be read.
+    Scale {
+        /// Text over the colour bar (the swept column).
+        title: String,
+        /// One value per series.
+        values: Vec<f64>,
+    },
+}
+
+/// Writes `chart` to `path_without_ext` + `.svg` and `.png`; returns both paths.
+///
+/// # Errors
+/// [`PlotError`] if there are no panels, a panel has no points, a coordinate is not finite, an
+/// index is out of range, labels or colour values are neither empty nor one per point (colour
+/// values: one per point whenever the chart has a colour scale), a logarithmic axis has no
+/// positive value, or a file cannot be written.
+pub fn front_chart(chart: &FrontChart, path_without_ext: &Path) -> Result<Vec<PathBuf>, PlotError> {
+    let figure = FrontFigure::new(chart, &figure_name(path_without_ext))?;
+    write_figure(&figure, path_without_ext)
+}
+
+/// [`line_chart`] with the curves coloured as `colours` says.
+///
+/// # Errors
+/// As [`line_chart`], and if a scale does not have one finite value per series.
+pub fn line_chart_coloured(
+    chart: &LineChart,
+    colours: &LineColours,
+    path_without_ext: &Path,
+) -> Result<Vec<PathBuf>, PlotError> {
+    let figure = LineFigure::with_colours(chart, colours, &figure_name(path_without_ext))?;
+    write_figure(&figure, path_without_ext)
 }
 
 /// Writes `chart` to `path_without_ext` + `.svg` and `.png`; returns both paths.

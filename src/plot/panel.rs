@@ -100,6 +100,8 @@ pub(super) enum Swatch {
     Dot(RGBColor),
     /// A line through a large dot.
     LineDot(RGBColor),
+    /// A dot in a ring (a front point not joined to the others).
+    Ringed(RGBColor),
     /// The knee marker.
     Ring,
 }
@@ -160,60 +162,208 @@ pub(super) fn wrap_text<DB: DrawingBackend>(
         .collect()
 }
 
-/// Draws a legend panel: a swatch and a (wrapped) label per entry, from `top` down.
+/// Most entries a legend lists: past this, colours repeat and a reader cannot match them.
+pub(super) const LEGEND_MAX: usize = 10;
+
+/// Draws a legend panel: a swatch and a (wrapped) label per entry, from `top` down. Entries
+/// that would run past the bottom of the area (or past [`LEGEND_MAX`]) are left out and
+/// counted in a last `+N more` line, so the text never overflows or overprints.
 pub(super) fn draw_legend<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
     entries: &[(String, Swatch)],
     top: i32,
 ) -> DrawResult<DB> {
     let style = text_style(LEGEND_SIZE).pos(Pos::new(HPos::Left, VPos::Center));
-    let (width, _) = area.dim_in_pixel();
+    let (width, height) = area.dim_in_pixel();
     let text_room = width.saturating_sub(LEGEND_SWATCH as u32 + 22);
-    let mut y = top;
+    let mut laid_out = Vec::with_capacity(entries.len());
     for (label, swatch) in entries {
-        let (x0, x1) = (6, 6 + LEGEND_SWATCH);
-        let mid = (x0 + x1) / 2;
-        match *swatch {
-            Swatch::Line { colour, band } => {
-                if band {
-                    area.draw(&Rectangle::new(
-                        [(x0, y - 7), (x1, y + 7)],
-                        colour.mix(0.2).filled(),
-                    ))?;
-                }
-                area.draw(&PathElement::new(
-                    vec![(x0, y), (x1, y)],
-                    colour.stroke_width(3),
-                ))?;
-            }
-            Swatch::Block(colour) => {
-                let corners = [(x0 + 4, y - 8), (x1 - 4, y + 8)];
-                area.draw(&Rectangle::new(corners, colour.filled()))?;
-                area.draw(&Rectangle::new(corners, AXIS.stroke_width(1)))?;
-            }
-            Swatch::Dot(colour) => {
-                area.draw(&Circle::new((mid, y), 4, colour.filled()))?;
-            }
-            Swatch::LineDot(colour) => {
-                area.draw(&PathElement::new(
-                    vec![(x0, y), (x1, y)],
-                    colour.stroke_width(2),
-                ))?;
-                area.draw(&Circle::new((mid, y), 5, colour.filled()))?;
-            }
-            Swatch::Ring => {
-                area.draw(&Circle::new((mid, y), 9, BLACK.stroke_width(2)))?;
-            }
-        }
         let lines = wrap_text(area, label, &style, text_room, 3)?;
-        let count = lines.len() as i32;
-        for (k, line) in lines.into_iter().enumerate() {
+        let row = LEGEND_ROW.max(lines.len() as i32 * LEGEND_LINE + 9);
+        laid_out.push((lines, *swatch, row));
+    }
+    let bottom = height as i32 - LEGEND_ROW / 2;
+    let rows_end = |k: usize| top + laid_out[..k].iter().map(|e| e.2).sum::<i32>();
+    let mut shown = laid_out.len().min(LEGEND_MAX);
+    // Room for the last entry's half row, and for the `+N more` line when some are left out.
+    let fits = |k: usize| {
+        let more = if k < laid_out.len() { LEGEND_ROW } else { 0 };
+        k == 0 || rows_end(k) - laid_out[k - 1].2 / 2 + more <= bottom
+    };
+    while shown > 0 && !fits(shown) {
+        shown -= 1;
+    }
+    let mut y = top;
+    for (lines, swatch, row) in laid_out.iter().take(shown) {
+        draw_swatch(area, *swatch, y)?;
+        for (k, line) in lines.iter().enumerate() {
             let line_y = y + k as i32 * LEGEND_LINE;
-            area.draw(&Text::new(line, (x1 + 10, line_y), style.clone()))?;
+            area.draw(&Text::new(
+                line.clone(),
+                (6 + LEGEND_SWATCH + 10, line_y),
+                style.clone(),
+            ))?;
         }
-        y += LEGEND_ROW.max(count * LEGEND_LINE + 9);
+        y += row;
+    }
+    if shown < laid_out.len() {
+        let more = format!("+{} more", laid_out.len() - shown);
+        area.draw(&Text::new(more, (6, y), style))?;
     }
     Ok(())
+}
+
+/// Draws one legend swatch centred on height `y`.
+fn draw_swatch<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    swatch: Swatch,
+    y: i32,
+) -> DrawResult<DB> {
+    let (x0, x1) = (6, 6 + LEGEND_SWATCH);
+    let mid = (x0 + x1) / 2;
+    match swatch {
+        Swatch::Line { colour, band } => {
+            if band {
+                area.draw(&Rectangle::new(
+                    [(x0, y - 7), (x1, y + 7)],
+                    colour.mix(0.2).filled(),
+                ))?;
+            }
+            area.draw(&PathElement::new(
+                vec![(x0, y), (x1, y)],
+                colour.stroke_width(3),
+            ))?;
+        }
+        Swatch::Block(colour) => {
+            let corners = [(x0 + 4, y - 8), (x1 - 4, y + 8)];
+            area.draw(&Rectangle::new(corners, colour.filled()))?;
+            area.draw(&Rectangle::new(corners, AXIS.stroke_width(1)))?;
+        }
+        Swatch::Dot(colour) => {
+            area.draw(&Circle::new((mid, y), 4, colour.filled()))?;
+        }
+        Swatch::LineDot(colour) => {
+            area.draw(&PathElement::new(
+                vec![(x0, y), (x1, y)],
+                colour.stroke_width(2),
+            ))?;
+            area.draw(&Circle::new((mid, y), 5, colour.filled()))?;
+        }
+        Swatch::Ringed(colour) => {
+            area.draw(&Circle::new((mid, y), 6, colour.stroke_width(2)))?;
+        }
+        Swatch::Ring => {
+            area.draw(&Circle::new((mid, y), 9, BLACK.stroke_width(2)))?;
+        }
+    }
+    Ok(())
+}
+
+/// Width of the colour bar's bar, in pixels.
+const COLOUR_BAR_WIDTH: i32 = 18;
+
+/// Width a colour bar over `scale` needs: its bar and tick labels, or its title if wider (at
+/// most 30% of the figure; a longer title is wrapped).
+pub(super) fn colour_bar_width<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    scale: ValueScale,
+    title: &str,
+) -> Result<u32, DrawingAreaErrorKind<DB::ErrorType>> {
+    let style = text_style(TICK_SIZE);
+    let axis = colour_axis(scale);
+    let mut widest = 0;
+    for tick in axis.ticks(6) {
+        widest = widest.max(text_width(area, &axis.format_tick(tick), &style)?);
+    }
+    let bar = COLOUR_BAR_WIDTH as u32 + widest + 30;
+    let title = text_width(area, title, &text_style(LEGEND_SIZE))? + 16;
+    Ok(bar.max(title).min(WIDTH * 3 / 10))
+}
+
+/// The axis a colour bar labels: the scale's range, no margin (widened around one value).
+fn colour_axis(scale: ValueScale) -> Axis {
+    if scale.hi > scale.lo {
+        Axis {
+            lo: scale.lo,
+            hi: scale.hi,
+            log: false,
+        }
+    } else {
+        Axis::covering(scale.lo, scale.hi, false, true)
+    }
+}
+
+/// Draws a vertical colour bar from `top` down: the (wrapped) title, the bar with the scale's
+/// high end on top, round tick values on its right, and a short mark on its left at each of
+/// `marks` (the values present in the data). Returns the bottom of the bar.
+pub(super) fn draw_colour_bar<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    scale: ValueScale,
+    title: &str,
+    marks: &[f64],
+    top: i32,
+) -> Result<i32, DrawingAreaErrorKind<DB::ErrorType>> {
+    let (width, height) = area.dim_in_pixel();
+    let style = text_style(LEGEND_SIZE).pos(Pos::new(HPos::Left, VPos::Center));
+    let lines = wrap_text(area, title, &style, width.saturating_sub(12), 3)?;
+    let mut y = top;
+    for line in lines {
+        area.draw(&Text::new(line, (6, y), style.clone()))?;
+        y += LEGEND_LINE;
+    }
+    let (x0, x1) = (14, 14 + COLOUR_BAR_WIDTH);
+    let bar_top = y + 4;
+    let bar_bottom = (height as i32 - 30).min(bar_top + 320).max(bar_top + 40);
+    let steps = 64;
+    let span = f64::from(bar_bottom - bar_top);
+    let pixel = |f: f64| bar_bottom - (f * span).round() as i32;
+    for k in 0..steps {
+        let (f0, f1) = (k as f64 / steps as f64, (k + 1) as f64 / steps as f64);
+        let colour = viridis((f0 + f1) / 2.0 * SCALE_TOP);
+        area.draw(&Rectangle::new(
+            [(x0, pixel(f1)), (x1, pixel(f0))],
+            colour.filled(),
+        ))?;
+    }
+    area.draw(&Rectangle::new(
+        [(x0, bar_top), (x1, bar_bottom)],
+        AXIS.stroke_width(1),
+    ))?;
+    let axis = colour_axis(scale);
+    let fraction = |v: f64| {
+        if scale.hi > scale.lo {
+            scale.position(v) / SCALE_TOP
+        } else {
+            axis.fraction(v)
+        }
+    };
+    let tick_style = text_style(TICK_SIZE).pos(Pos::new(HPos::Left, VPos::Center));
+    for tick in axis.ticks(6) {
+        let ty = pixel(fraction(tick));
+        area.draw(&PathElement::new(
+            vec![(x1, ty), (x1 + 5, ty)],
+            AXIS.stroke_width(1),
+        ))?;
+        area.draw(&Text::new(
+            axis.format_tick(tick),
+            (x1 + 9, ty),
+            tick_style.clone(),
+        ))?;
+    }
+    let mut marked: Vec<i32> = marks
+        .iter()
+        .filter(|v| v.is_finite())
+        .map(|&v| pixel(fraction(v)))
+        .collect();
+    marked.sort_unstable();
+    marked.dedup();
+    for my in marked {
+        area.draw(&PathElement::new(
+            vec![(x0 - 6, my), (x0 - 1, my)],
+            AXIS.stroke_width(1),
+        ))?;
+    }
+    Ok(bar_bottom)
 }
 
 /// A plot area and, on its right, a legend area.

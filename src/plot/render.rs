@@ -12,6 +12,11 @@ pub(super) trait Figure {
         &self,
         root: &DrawingArea<DB, Shift>,
     ) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>>;
+
+    /// Width and height in pixels (the PNG size; the SVG uses the same user units).
+    fn size(&self) -> (u32, u32) {
+        (WIDTH, HEIGHT)
+    }
 }
 
 /// The embedded font, parsed once per process. It is also registered with `plotters` under
@@ -52,14 +57,14 @@ pub(super) fn write_figure<F: Figure>(figure: &F, base: &Path) -> Result<Vec<Pat
     let svg_path = with_suffix(base, ".svg");
     let png_path = with_suffix(base, ".png");
     let svg = draw_svg(figure, font, &svg_path)?;
-    let png = rasterise(&svg, &png_path)?;
+    let png = rasterise(&svg, figure.size(), &png_path)?;
     write_atomically(&svg_path, &with_suffix(base, ".tmp.svg"), svg.as_bytes())?;
     write_atomically(&png_path, &with_suffix(base, ".tmp.png"), &png)?;
     Ok(vec![svg_path, png_path])
 }
 
 /// The figure as SVG text.
-fn draw_svg<F: Figure>(
+pub(super) fn draw_svg<F: Figure>(
     figure: &F,
     font: &'static FontRef<'static>,
     target: &Path,
@@ -67,7 +72,7 @@ fn draw_svg<F: Figure>(
     let mut text = String::new();
     {
         let root = Typeset {
-            inner: SVGBackend::with_string(&mut text, (WIDTH, HEIGHT)),
+            inner: SVGBackend::with_string(&mut text, figure.size()),
             font,
         }
         .into_drawing_area();
@@ -84,7 +89,7 @@ fn draw_svg<F: Figure>(
 
 /// The SVG rendered by resvg into PNG bytes, its `sans-serif` text set in the embedded DejaVu
 /// Sans (the only font it knows, so the PNG does not depend on the machine's fonts).
-fn rasterise(svg: &str, target: &Path) -> Result<Vec<u8>, PlotError> {
+fn rasterise(svg: &str, (width, height): (u32, u32), target: &Path) -> Result<Vec<u8>, PlotError> {
     static FONTS: OnceLock<Arc<usvg::fontdb::Database>> = OnceLock::new();
     let fonts = FONTS.get_or_init(|| {
         let mut fonts = usvg::fontdb::Database::new();
@@ -102,7 +107,7 @@ fn rasterise(svg: &str, target: &Path) -> Result<Vec<u8>, PlotError> {
         ..usvg::Options::default()
     };
     let tree = usvg::Tree::from_str(svg, &options).map_err(|e| failed(e.to_string()))?;
-    let mut pixmap = tiny_skia::Pixmap::new(WIDTH, HEIGHT).expect("a figure size above zero");
+    let mut pixmap = tiny_skia::Pixmap::new(width, height).expect("a figure size above zero");
     resvg::render(
         &tree,
         tiny_skia::Transform::identity(),

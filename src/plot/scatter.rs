@@ -1,5 +1,6 @@
 //! Scatter charts: points with a highlighted front and a marked knee.
 
+use super::place::{Bounds, Wanted, marker_box, place_labels, polyline_boxes};
 use super::*;
 
 pub(super) const POINT_COLOUR: RGBColor = RGBColor(150, 150, 150);
@@ -15,47 +16,60 @@ pub(super) struct ScatterFigure<'a> {
     pub(super) y: Axis,
 }
 
-impl<'a> ScatterFigure<'a> {
-    pub(super) fn new(chart: &'a ScatterChart, figure: &str) -> Result<Self, PlotError> {
-        let n = chart.points.len();
+/// Points with a front (and a marked point), validated: which can be drawn, the front's
+/// drawable points in order of x, and axes covering the drawable points. `name` turns a part
+/// (`points`, `x`, `y`, `front`, `marked`, `labels`) into the name errors give it.
+pub(super) struct PointsWithFront {
+    pub(super) shown: Vec<bool>,
+    pub(super) front: Vec<usize>,
+    pub(super) x: Axis,
+    pub(super) y: Axis,
+}
+
+impl PointsWithFront {
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn new(
+        figure: &str,
+        name: impl Fn(&str) -> String,
+        points: &[(f64, f64)],
+        front: &[usize],
+        marked: Option<usize>,
+        labels: usize,
+        log_x: bool,
+        log_y: bool,
+    ) -> Result<Self, PlotError> {
+        let n = points.len();
         if n == 0 {
-            return Err(empty(figure, "point list"));
+            return Err(empty(figure, &name("points")));
         }
-        let xs: Vec<f64> = chart.points.iter().map(|p| p.0).collect();
-        let ys: Vec<f64> = chart.points.iter().map(|p| p.1).collect();
-        check_values(figure, "point x", &xs, false)?;
-        check_values(figure, "point y", &ys, false)?;
-        for &i in &chart.highlighted {
-            check_index(figure, "highlighted", i, n)?;
+        let xs: Vec<f64> = points.iter().map(|p| p.0).collect();
+        let ys: Vec<f64> = points.iter().map(|p| p.1).collect();
+        check_values(figure, &name("x"), &xs, false)?;
+        check_values(figure, &name("y"), &ys, false)?;
+        for &i in front {
+            check_index(figure, &name("front"), i, n)?;
         }
-        if let Some(i) = chart.marked {
-            check_index(figure, "marked", i, n)?;
+        if let Some(i) = marked {
+            check_index(figure, &name("marked"), i, n)?;
         }
-        if !chart.point_labels.is_empty() {
-            check_len(figure, "point_labels", n, chart.point_labels.len())?;
+        if labels > 0 {
+            check_len(figure, &name("labels"), n, labels)?;
         }
-        let shown: Vec<bool> = chart
-            .points
+        let shown: Vec<bool> = points
             .iter()
-            .map(|&(x, y)| drawable(x, y, chart.log_x, chart.log_y))
+            .map(|&(x, y)| drawable(x, y, log_x, log_y))
             .collect();
         if !shown.contains(&true) {
-            return Err(no_positive(figure, &xs, chart.log_x));
+            return Err(no_positive(figure, &xs, log_x));
         }
-        let mut front: Vec<usize> = chart
-            .highlighted
-            .iter()
-            .copied()
-            .filter(|&i| shown[i])
-            .collect();
+        let mut front: Vec<usize> = front.iter().copied().filter(|&i| shown[i]).collect();
         front.sort_by(|&a, &b| {
-            let (pa, pb) = (chart.points[a], chart.points[b]);
+            let (pa, pb) = (points[a], points[b]);
             pa.0.total_cmp(&pb.0).then(pa.1.total_cmp(&pb.1))
         });
         front.dedup();
         let visible = || {
-            chart
-                .points
+            points
                 .iter()
                 .zip(&shown)
                 .filter(|(_, s)| **s)
@@ -64,11 +78,43 @@ impl<'a> ScatterFigure<'a> {
         let (x_min, x_max) = extent(visible().map(|p| p.0));
         let (y_min, y_max) = extent(visible().map(|p| p.1));
         Ok(Self {
-            chart,
             shown,
             front,
-            x: Axis::covering(x_min, x_max, chart.log_x, true),
-            y: Axis::covering(y_min, y_max, chart.log_y, true),
+            x: Axis::covering(x_min, x_max, log_x, true),
+            y: Axis::covering(y_min, y_max, log_y, true),
+        })
+    }
+}
+
+impl<'a> ScatterFigure<'a> {
+    pub(super) fn new(chart: &'a ScatterChart, figure: &str) -> Result<Self, PlotError> {
+        let name = |part: &str| {
+            match part {
+                "points" => "point list",
+                "x" => "point x",
+                "y" => "point y",
+                "front" => "highlighted",
+                "labels" => "point_labels",
+                other => other,
+            }
+            .to_owned()
+        };
+        let set = PointsWithFront::new(
+            figure,
+            name,
+            &chart.points,
+            &chart.highlighted,
+            chart.marked,
+            chart.point_labels.len(),
+            chart.log_x,
+            chart.log_y,
+        )?;
+        Ok(Self {
+            chart,
+            shown: set.shown,
+            front: set.front,
+            x: set.x,
+            y: set.y,
         })
     }
 
@@ -79,13 +125,6 @@ impl<'a> ScatterFigure<'a> {
             .map(String::as_str)
             .filter(|l| !l.trim().is_empty())
     }
-}
-
-/// Pixel rectangle `(x0, y0, x1, y1)`.
-pub(super) type Bounds = (i32, i32, i32, i32);
-
-pub(super) fn overlaps(a: Bounds, b: Bounds) -> bool {
-    a.0 < b.2 && b.0 < a.2 && a.1 < b.3 && b.1 < a.3
 }
 
 impl Figure for ScatterFigure<'_> {
@@ -128,97 +167,57 @@ impl Figure for ScatterFigure<'_> {
             )))?;
         }
 
-        // Labels: the knee's first, then the front's, each at the spot around its point that
-        // stays in the plot, overlaps no earlier label and covers the fewest markers and line.
-        let (x0, y1) = chart.backend_coord(&(self.x.lo, self.y.lo));
-        let (x1, y0) = chart.backend_coord(&(self.x.hi, self.y.hi));
-        let plot_bounds = (x0, y0, x1, y1);
-        let mut obstacles: Vec<Bounds> = Vec::new();
-        for (p, _) in points.iter().zip(&self.shown).filter(|(_, s)| **s) {
-            let (px, py) = chart.backend_coord(p);
-            obstacles.push((px - 4, py - 4, px + 4, py + 4));
-        }
-        let front_pixels: Vec<(i32, i32)> = self
-            .front
+        // Labels: the knee's first, then the front's, each where it stays in the plot and
+        // covers no marker and no earlier label (a label with no such spot is left out).
+        let (rx, ry) = root.get_base_pixel();
+        let pixel = |p: &(f64, f64)| {
+            let (x, y) = chart.backend_coord(p);
+            (x - rx, y - ry)
+        };
+        let (x0, y1) = pixel(&(self.x.lo, self.y.lo));
+        let (x1, y0) = pixel(&(self.x.hi, self.y.hi));
+        let mut obstacles: Vec<Bounds> = points
             .iter()
-            .map(|&i| chart.backend_coord(&points[i]))
+            .zip(&self.shown)
+            .filter(|(_, s)| **s)
+            .map(|(p, _)| marker_box(pixel(p), 4))
             .collect();
-        for pair in front_pixels.windows(2) {
-            let ((ax, ay), (bx, by)) = (pair[0], pair[1]);
-            let steps = ((bx - ax).abs().max((by - ay).abs()) / 4).max(1);
-            for k in 0..=steps {
-                let x = ax + (bx - ax) * k / steps;
-                let y = ay + (by - ay) * k / steps;
-                obstacles.push((x - 1, y - 1, x + 1, y + 1));
-            }
+        let front_pixels: Vec<(i32, i32)> = self.front.iter().map(|&i| pixel(&points[i])).collect();
+        obstacles.extend(front_pixels.iter().map(|&p| marker_box(p, 6)));
+        if let Some(i) = knee {
+            obstacles.push(marker_box(pixel(&points[i]), 11));
         }
-        for &(px, py) in &front_pixels {
-            obstacles.push((px - 6, py - 6, px + 6, py + 6));
-        }
-        let mut wanted: Vec<(usize, String, f64)> = Vec::new();
+        let soft = polyline_boxes(&front_pixels, 1);
+        let mut texts = Vec::new();
+        let mut wanted = Vec::new();
+        let mut want = |i: usize, text: String, size: f64, gap: i32| {
+            let style = text_style(size);
+            let (w, h) = root.estimate_text_size(&text, &style)?;
+            wanted.push(Wanted {
+                anchor: pixel(&points[i]),
+                gap,
+                size: (w as i32, h as i32),
+            });
+            texts.push((text, style));
+            Ok::<_, DrawingAreaErrorKind<DB::ErrorType>>(())
+        };
         if let Some(i) = knee {
             let text = match self.label(i) {
                 Some(l) => format!("knee ({l})"),
                 None => "knee".to_string(),
             };
-            wanted.push((i, text, LEGEND_SIZE));
+            want(i, text, LEGEND_SIZE, 13)?;
         }
         for &i in &self.front {
             if Some(i) != knee
                 && let Some(l) = self.label(i)
             {
-                wanted.push((i, l.to_string(), POINT_LABEL_SIZE));
+                want(i, l.to_string(), POINT_LABEL_SIZE, 7)?;
             }
         }
-        let (fig_w, fig_h) = root.dim_in_pixel();
-        let figure_bounds = (0, 0, fig_w as i32, fig_h as i32);
-        let mut placed: Vec<Bounds> = Vec::new();
-        for (i, text, size) in wanted {
-            let style = text_style(size);
-            let (w, h) = root.estimate_text_size(&text, &style)?;
-            let (w, h) = (w as i32, h as i32);
-            let (px, py) = chart.backend_coord(&points[i]);
-            let gap = if Some(i) == knee { 13 } else { 7 };
-            let spots = [
-                (px + gap, py - gap - h),
-                (px - gap - w, py - gap - h),
-                (px + gap, py + gap),
-                (px - gap - w, py + gap),
-                (px - w / 2, py - gap - h),
-                (px - w / 2, py + gap),
-                (px + gap + 2, py - h / 2),
-                (px - gap - 2 - w, py - h / 2),
-            ]
-            .map(|(x, y)| (x, y, x + w, y + h));
-            let own = (px - 1, py - 1, px + 1, py + 1);
-            let free = |b: &Bounds, within: Bounds| {
-                b.0 >= within.0
-                    && b.2 <= within.2
-                    && b.1 >= within.1
-                    && b.3 <= within.3
-                    && placed.iter().all(|p| !overlaps(*b, *p))
-            };
-            let cost = |b: &Bounds| {
-                obstacles
-                    .iter()
-                    .filter(|o| !overlaps(**o, own) && overlaps(*b, **o))
-                    .count()
-            };
-            let best = |within: Bounds| {
-                spots
-                    .iter()
-                    .filter(|b| free(b, within))
-                    .min_by_key(|b| cost(b))
-                    .copied()
-            };
-            // The knee is always labelled, if need be outside the plot.
-            let spot = match best(plot_bounds) {
-                Some(b) => Some(b),
-                None if Some(i) == knee => best(figure_bounds).or(Some(spots[0])),
-                None => None,
-            };
+        let spots = place_labels(&wanted, &obstacles, &soft, (x0, y0, x1, y1));
+        for ((text, style), spot) in texts.into_iter().zip(spots) {
             if let Some(b) = spot {
-                placed.push(b);
                 root.draw(&Text::new(text, (b.0, b.1), style))?;
             }
         }

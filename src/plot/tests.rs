@@ -1,3 +1,4 @@
+use super::place::Bounds;
 use super::*;
 
 /// A fresh, empty folder under the system temp dir, unique to this process and test.
@@ -440,4 +441,157 @@ fn tick_values_are_round_and_print_short() {
         log: true,
     };
     assert_eq!(costs.format_tick(100.0), "1e2", "one axis, one notation");
+}
+
+#[test]
+fn the_colour_scale_runs_from_viridis_dark_end_through_its_middle() {
+    // Viridis' published ends and middle (matplotlib: #440154, #21918c, #fde725).
+    assert_eq!(viridis(0.0), RGBColor(0x44, 0x01, 0x54));
+    assert_eq!(viridis(0.5), RGBColor(0x21, 0x91, 0x8c));
+    assert_eq!(viridis(1.0), RGBColor(0xfd, 0xe7, 0x25));
+    // Out of range and NaN are clamped, never a panic.
+    assert_eq!(viridis(-3.0), viridis(0.0));
+    assert_eq!(viridis(7.0), viridis(1.0));
+    assert_eq!(viridis(f64::NAN), viridis(0.0));
+    // Halfway between the first two stops (68,1,84) and (72,36,117).
+    assert_eq!(viridis(0.05), RGBColor(70, 19, 101));
+
+    // A data scale over 0..20: the low end dark, the high end at SCALE_TOP (0.9, stop 9:
+    // #bddf26, before the pale last tenth), the middle at 0.45 (between stops 4 and 5).
+    let scale = ValueScale::spanning(&[5.0, 0.0, 20.0, f64::NAN]).unwrap();
+    assert_eq!((scale.lo, scale.hi), (0.0, 20.0));
+    assert_eq!(scale.colour(0.0), viridis(0.0));
+    assert_eq!(scale.colour(20.0), RGBColor(0xbd, 0xdf, 0x26));
+    let RGBColor(r, g, b) = scale.colour(10.0);
+    for (got, want) in [(r, 37.5), (g, 132.5), (b, 141.0)] {
+        assert!((f64::from(got) - want).abs() <= 0.5, "{got} vs {want}");
+    }
+    // One value takes the middle of the visible range; no finite value, no scale.
+    let single = ValueScale::spanning(&[3.0, 3.0]).unwrap();
+    assert_eq!(single.colour(3.0), viridis(SCALE_TOP / 2.0));
+    assert!(ValueScale::spanning(&[f64::NAN]).is_none());
+}
+
+/// A crowded front: 40 front points on a tight curve with long labels, among 80 other points.
+fn crowded_front() -> FrontChart {
+    let mut points = Vec::new();
+    let mut front = Vec::new();
+    for i in 0..40 {
+        let t = f64::from(i) / 39.0;
+        front.push(points.len());
+        points.push((1000.0 + 4000.0 * t, 100.0 + 150.0 * t.sqrt()));
+    }
+    for i in 0..80 {
+        let t = f64::from(i) / 79.0;
+        points.push((
+            1200.0 + 4000.0 * t,
+            90.0 + 120.0 * t.sqrt() - f64::from(i % 5) * 6.0,
+        ));
+    }
+    let n = points.len();
+    FrontChart {
+        title: "crowded".to_owned(),
+        x_label: "cost".to_owned(),
+        y_label: "reward".to_owned(),
+        colour: Some("kappa_coeff".to_owned()),
+        panels: vec![FrontPanel {
+            title: String::new(),
+            colour_values: (0..n).map(|i| (i % 41) as f64 * 0.5).collect(),
+            labels: (0..n)
+                .map(|i| format!("kappa_coeff={}", i as f64 * 0.5))
+                .collect(),
+            points,
+            front,
+            knee: Some(20),
+        }],
+        join_front: true,
+        log_x: false,
+        log_y: false,
+    }
+}
+
+#[test]
+fn front_labels_never_overlap_each_other_or_any_point_and_crowded_ones_are_dropped() {
+    let font = font().unwrap();
+    for panels in [1, 4] {
+        let chart = FrontChart {
+            panels: (0..panels)
+                .map(|k| FrontPanel {
+                    title: format!("interaction={k}"),
+                    ..crowded_front().panels[0].clone()
+                })
+                .collect(),
+            ..crowded_front()
+        };
+        let figure = FrontFigure::new(&chart, "crowded").unwrap();
+        let svg = draw_svg(&figure, font, Path::new("crowded.svg")).unwrap();
+        let layouts = figure.layout.borrow();
+        assert_eq!(layouts.len(), panels);
+        for layout in layouts.iter() {
+            assert_eq!(layout.markers.len(), 120);
+            let labels: Vec<Bounds> = layout.labels.iter().map(|(_, b)| *b).collect();
+            assert!(labels.len() >= 3, "only {} labels placed", labels.len());
+            assert!(!layout.dropped.is_empty(), "40 labels cannot all fit");
+            assert_eq!(labels.len() + layout.dropped.len(), 40);
+            assert_eq!(layout.labels[0].0, 20, "the knee is labelled first");
+            for (k, a) in labels.iter().enumerate() {
+                for b in &labels[k + 1..] {
+                    assert!(!place::overlaps(*a, *b), "labels {a:?} and {b:?} overlap");
+                }
+                for m in &layout.markers {
+                    assert!(!place::overlaps(*a, *m), "label {a:?} covers marker {m:?}");
+                }
+            }
+        }
+        // Boxes are the glyphs' real extent: the knee's label is as wide as DejaVu sets it.
+        let (_, width) = text::layout_glyphs(font, "knee (kappa_coeff=10)", LEGEND_SIZE);
+        let (x0, _, x1, _) = layouts[0].labels[0].1;
+        assert_eq!(x1 - x0, width.ceil() as i32);
+        assert!(svg.contains("knee (kappa_coeff=10)"));
+    }
+}
+
+#[test]
+fn a_long_categorical_legend_is_cut_with_a_count_and_a_numeric_one_becomes_a_colour_bar() {
+    let dir = temp_dir("legend");
+    let chart = LineChart {
+        series: (0..41)
+            .map(|k| {
+                series(
+                    &format!("group {k}"),
+                    vec![0.0, 1.0],
+                    vec![0.0, f64::from(k)],
+                )
+            })
+            .collect(),
+        ..reward_chart()
+    };
+    let paths = line_chart(&chart, &dir.join("many")).unwrap();
+    let svg = fs::read_to_string(&paths[0]).unwrap();
+    assert!(
+        svg.contains(&format!("+{} more", 41 - LEGEND_MAX)),
+        "no count of the rest"
+    );
+    assert!(svg.contains("\ngroup 9\n") && !svg.contains("\ngroup 10\n"));
+
+    let colours = LineColours::Scale {
+        title: "kappa_coeff".to_owned(),
+        values: (0..41).map(|k| f64::from(k) * 0.5).collect(),
+    };
+    let paths = line_chart_coloured(&chart, &colours, &dir.join("scale")).unwrap();
+    let svg = fs::read_to_string(&paths[0]).unwrap();
+    assert!(svg.contains("\nkappa_coeff\n") && !svg.contains("group 0"));
+    // The curves take the scale's ends: the first viridis' dark end, the last SCALE_TOP.
+    let hex = |RGBColor(r, g, b): RGBColor| format!("stroke=\"#{r:02X}{g:02X}{b:02X}\"");
+    assert!(svg.contains(&hex(viridis(0.0))), "{}", hex(viridis(0.0)));
+    assert!(svg.contains(&hex(viridis(SCALE_TOP))));
+    let wrong = LineColours::Scale {
+        title: "k".to_owned(),
+        values: vec![1.0],
+    };
+    assert!(matches!(
+        line_chart_coloured(&chart, &wrong, &dir.join("wrong")),
+        Err(PlotError::LengthMismatch { .. })
+    ));
+    fs::remove_dir_all(dir).unwrap();
 }
