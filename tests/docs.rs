@@ -301,6 +301,8 @@ fn every_command_in_the_docs_runs() {
         if navworld {
             std::os::unix::fs::symlink(&shared, root.path().join("shared")).expect("a link");
         }
+        // The docs run commands from the repository's root, naming the shipped sweep files.
+        std::os::unix::fs::symlink(repo().join("sweeps"), work.join("sweeps")).expect("a link");
         for step in steps {
             let doc = match step {
                 Step::Write(name, text) => {
