@@ -1,5 +1,5 @@
-//! The documentation holds to the code: every relative link and anchor of README.md, docs/ and
-//! benches/README.md resolves; every `mbmf` command of the shell blocks of README.md and docs/
+//! The documentation holds to the code: every relative link and anchor of README.md, docs/,
+//! benches/README.md and sweeps/README.md resolves; every `mbmf` command of the shell blocks of README.md and docs/
 //! runs (or says why not); `docs/schema.md` is what the files mbmf writes carry; `docs/architecture.md` names
 //! every source folder and module.
 
@@ -15,7 +15,8 @@ use tempfile::TempDir;
 
 use common::{mbmf, repo};
 
-/// The pages a newcomer reads: the README, every page of docs/, the benchmarks' README.
+/// The pages a newcomer reads: the README, every page of docs/, the benchmarks' and the sweeps'
+/// READMEs.
 fn pages() -> Vec<PathBuf> {
     fn walk(dir: &Path, out: &mut Vec<PathBuf>) {
         let mut entries: Vec<PathBuf> = std::fs::read_dir(dir)
@@ -31,7 +32,11 @@ fn pages() -> Vec<PathBuf> {
             }
         }
     }
-    let mut pages = vec![repo().join("README.md"), repo().join("benches/README.md")];
+    let mut pages = vec![
+        repo().join("README.md"),
+        repo().join("benches/README.md"),
+        repo().join("sweeps/README.md"),
+    ];
     walk(&repo().join("docs"), &mut pages);
     pages
 }
@@ -286,11 +291,11 @@ fn every_command_in_the_docs_runs() {
     let shared = repo().join("../shared");
     let navworld = Path::new(common::NAVWORLD).exists();
     let (mut ran, mut skipped, mut not_run) = (0, Vec::new(), Vec::new());
-    // The benchmarks' commands take minutes on purpose; their page says how long.
-    for page in pages()
-        .into_iter()
-        .filter(|p| !p.ends_with("benches/README.md"))
-    {
+    // The README and docs/ show what a newcomer types; the benchmarks' and the sweeps' pages
+    // show jobs of minutes on purpose, and say how long.
+    let for_newcomers =
+        |p: &PathBuf| *p == repo().join("README.md") || p.starts_with(repo().join("docs"));
+    for page in pages().into_iter().filter(for_newcomers) {
         let steps = steps(&page);
         if steps.is_empty() {
             continue;
