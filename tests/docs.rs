@@ -416,19 +416,29 @@ fn the_schema_page_is_what_the_files_carry() {
     );
 }
 
+/// The entries of a folder with their names.
+fn entries(dir: &Path) -> Vec<(PathBuf, String)> {
+    std::fs::read_dir(dir)
+        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
+        .map(|e| {
+            let path = e.expect("a folder entry").path();
+            let name = path
+                .file_name()
+                .expect("a name")
+                .to_string_lossy()
+                .to_string();
+            (path, name)
+        })
+        .collect()
+}
+
 /// `docs/architecture.md` names every folder and module of `src/` (as `src/NAME/` or
 /// `src/NAME.rs`, or a file of a named folder as `NAME.rs`), so the map cannot fall behind.
 #[test]
 fn the_architecture_names_every_source_module() {
     let text = read(&repo().join("docs/architecture.md"));
     let mut missing = Vec::new();
-    for entry in std::fs::read_dir(repo().join("src")).expect("src/") {
-        let path = entry.expect("an entry").path();
-        let name = path
-            .file_name()
-            .expect("a name")
-            .to_string_lossy()
-            .to_string();
+    for (path, name) in entries(&repo().join("src")) {
         if path.is_dir() {
             if name == "assets" {
                 continue;
@@ -436,13 +446,7 @@ fn the_architecture_names_every_source_module() {
             if !text.contains(&format!("`src/{name}/`")) {
                 missing.push(format!("src/{name}/"));
             }
-            for file in std::fs::read_dir(&path).expect("a folder") {
-                let file = file.expect("an entry").path();
-                let module = file
-                    .file_name()
-                    .expect("a name")
-                    .to_string_lossy()
-                    .to_string();
+            for (_, module) in entries(&path) {
                 if module != "mod.rs"
                     && module.ends_with(".rs")
                     && !text.contains(&format!("`{module}`"))
