@@ -184,6 +184,8 @@ struct Doc {
     page: PathBuf,
     line: usize,
     command: String,
+    /// The output a `console` block shows after the command, if any: what it must print.
+    shown: Option<String>,
 }
 
 /// What a page's fenced blocks ask to run, in order: `mbmf` commands of `sh` blocks (every line)
@@ -251,6 +253,11 @@ fn steps(page: &Path) -> Vec<Step> {
                         );
                     }
                     k += 1;
+                    let mut shown = Vec::new();
+                    while info.trim() == "console" && k < body.len() && !body[k].starts_with("$ ") {
+                        shown.push(body[k]);
+                        k += 1;
+                    }
                     let command = command.trim().to_string();
                     if !command.starts_with("mbmf ") {
                         continue;
@@ -259,6 +266,7 @@ fn steps(page: &Path) -> Vec<Step> {
                         page: page.to_path_buf(),
                         line: line_no,
                         command,
+                        shown: (!shown.is_empty()).then(|| shown.join("\n")),
                     };
                     out.push(match &not_run {
                         Some(reason) => Step::NotRun(doc, reason.clone()),
@@ -273,7 +281,8 @@ fn steps(page: &Path) -> Vec<Step> {
     out
 }
 
-/// Every `mbmf` command shown in a shell block runs and succeeds, page by page in a fresh folder
+/// Every `mbmf` command shown in a shell block runs and succeeds (printing on stdout what a
+/// `console` block shows after it, when it shows something), page by page in a fresh folder
 /// (the commands of a page run in order, as a reader would type them), with the authors' data at
 /// `../shared/data/navworld` when it is beside the checkout (skipped otherwise, failed under
 /// `CI=true`). Blocks marked `<!-- not run: REASON -->` are counted and listed.
@@ -290,7 +299,7 @@ fn every_command_in_the_docs_runs() {
     );
     let shared = repo().join("../shared");
     let navworld = Path::new(common::NAVWORLD).exists();
-    let (mut ran, mut skipped, mut not_run) = (0, Vec::new(), Vec::new());
+    let (mut ran, mut compared, mut skipped, mut not_run) = (0, 0, Vec::new(), Vec::new());
     // The README and docs/ show what a newcomer types; the benchmarks' and the sweeps' pages
     // show jobs of minutes on purpose, and say how long.
     let for_newcomers =
@@ -346,11 +355,21 @@ fn every_command_in_the_docs_runs() {
                 output.status,
                 String::from_utf8_lossy(&output.stderr)
             );
+            if let Some(shown) = &doc.shown {
+                let printed = String::from_utf8_lossy(&output.stdout);
+                assert!(
+                    printed.trim_end() == shown.trim_end(),
+                    "{at}: `{}` prints other lines than the page shows; page:\n{shown}\nprinted:\n{printed}",
+                    doc.command
+                );
+                compared += 1;
+            }
             ran += 1;
         }
     }
     println!(
-        "{ran} documented commands ran; {} skipped without the authors' data; {} not run:",
+        "{ran} documented commands ran ({compared} printing what their page shows); {} skipped \
+         without the authors' data; {} not run:",
         skipped.len(),
         not_run.len()
     );
