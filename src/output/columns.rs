@@ -169,3 +169,43 @@ pub fn schema_markdown(runs: &Schema, series: &Schema) -> String {
     }
     s
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_schema_page_lists_shared_columns_once_then_each_tables_own() {
+        let shared = [
+            field("run_index", DataType::Int64, false),
+            field("kappa_coeff", DataType::Float64, false),
+        ];
+        let runs = Schema::new(
+            shared
+                .iter()
+                .cloned()
+                .chain([field("first_reward_step", DataType::Int64, true)])
+                .collect::<Vec<_>>(),
+        );
+        let series = Schema::new(
+            shared
+                .iter()
+                .cloned()
+                .chain([field("step", DataType::Int64, false)])
+                .collect::<Vec<_>>(),
+        );
+        let page = schema_markdown(&runs, &series);
+        let rows: Vec<&str> = page.lines().filter(|l| l.starts_with("| `")).collect();
+        assert_eq!(
+            rows,
+            [
+                "| `run_index` | i64 | – | – |  | index of the run; with master_seed it fixes the run's random stream |",
+                "| `kappa_coeff` | f64 | `kappa_coeff` | `9` | 1/bit | kappa = exp(-kappa_coeff * H_MF in bits) (Eq. 7) |",
+                "| `first_reward_step` | i64, null | steps | 1-based experiment step whose transition first reached the goal; null if none |",
+                "| `step` | i64 | steps | experiment step of the row |",
+            ]
+        );
+        // A `|` in a text would end its cell early.
+        assert_eq!(cell("a | b"), "a \\| b");
+    }
+}
