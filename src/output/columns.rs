@@ -1,9 +1,11 @@
 //! What each column means and its unit, stored as Arrow field metadata (`description`, `unit`)
-//! so a file explains itself without the README. The texts follow the README's schema tables.
+//! so a file explains itself without the docs. The same texts render `docs/schema.md`
+//! ([`schema_markdown`]), so the page and the files cannot drift apart.
 
 use std::collections::HashMap;
+use std::fmt::Write as _;
 
-use arrow::datatypes::{DataType, Field};
+use arrow::datatypes::{DataType, Field, Schema};
 
 /// The unit of inference costs, which depends on the cost model.
 const COST: &str = "per cost_model: Q values read (ops) or s (wallclock)";
@@ -74,5 +76,136 @@ pub fn field(name: &str, data_type: DataType, nullable: bool) -> Field {
             field.with_metadata(m)
         }
         None => field,
+    }
+}
+
+/// A column's type as the schema page writes it.
+fn type_name(data_type: &DataType) -> String {
+    match data_type {
+        DataType::Int64 => "i64".to_string(),
+        DataType::UInt64 => "u64".to_string(),
+        DataType::Float64 => "f64".to_string(),
+        DataType::Boolean => "bool".to_string(),
+        DataType::Utf8 | DataType::LargeUtf8 => "string".to_string(),
+        other => other.to_string(),
+    }
+}
+
+/// A table cell: `|` would end the cell early.
+fn cell(text: &str) -> String {
+    text.replace('|', "\\|")
+}
+
+/// The column tables of the schema page, in markdown, from the schemas of a `runs` and a
+/// `series` file: first the columns both tables start with (identity and parameters, with the
+/// registry's sweep key and default), then each table's own columns, in file order. Each row
+/// gives the type (with `null` when the column can be null), the unit and the description the
+/// files carry, so `docs/schema.md` is generated rather than kept in step by hand.
+pub fn schema_markdown(runs: &Schema, series: &Schema) -> String {
+    let shared = runs
+        .fields()
+        .iter()
+        .zip(series.fields().iter())
+        .take_while(|(a, b)| a == b)
+        .count();
+    let kind = |f: &Field| {
+        let t = type_name(f.data_type());
+        if f.is_nullable() {
+            format!("{t}, null")
+        } else {
+            t
+        }
+    };
+    let meaning = |f: &Field| doc(f.name()).unwrap_or(("", ""));
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "**Parameter columns** (both tables, first; `default` and `sweep key` from the parameter registry):\n"
+    );
+    let _ = writeln!(
+        s,
+        "| column | type | sweep key | default | unit | meaning |"
+    );
+    let _ = writeln!(s, "|---|---|---|---|---|---|");
+    for f in &runs.fields()[..shared] {
+        let (description, unit) = meaning(f);
+        let (key, default) = match crate::params::param(f.name()) {
+            Some(p) => (
+                format!("`{}`", p.key),
+                format!("`{}`", p.default_value().shown()),
+            ),
+            None => ("–".to_string(), "–".to_string()),
+        };
+        let _ = writeln!(
+            s,
+            "| `{}` | {} | {key} | {default} | {} | {} |",
+            f.name(),
+            kind(f),
+            cell(unit),
+            cell(description)
+        );
+    }
+    for (title, schema) in [
+        ("**`runs` results** (one row per run, SPEC 8)", runs),
+        (
+            "**`series` columns** (one row per run per checkpoint)",
+            series,
+        ),
+    ] {
+        let _ = writeln!(s, "\n{title}:\n");
+        let _ = writeln!(s, "| column | type | unit | meaning |");
+        let _ = writeln!(s, "|---|---|---|---|");
+        for f in &schema.fields()[shared..] {
+            let (description, unit) = meaning(f);
+            let _ = writeln!(
+                s,
+                "| `{}` | {} | {} | {} |",
+                f.name(),
+                kind(f),
+                cell(unit),
+                cell(description)
+            );
+        }
+    }
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_schema_page_lists_shared_columns_once_then_each_tables_own() {
+        let shared = [
+            field("run_index", DataType::Int64, false),
+            field("kappa_coeff", DataType::Float64, false),
+        ];
+        let runs = Schema::new(
+            shared
+                .iter()
+                .cloned()
+                .chain([field("first_reward_step", DataType::Int64, true)])
+                .collect::<Vec<_>>(),
+        );
+        let series = Schema::new(
+            shared
+                .iter()
+                .cloned()
+                .chain([field("step", DataType::Int64, false)])
+                .collect::<Vec<_>>(),
+        );
+        let page = schema_markdown(&runs, &series);
+        let rows: Vec<&str> = page.lines().filter(|l| l.starts_with("| `")).collect();
+        assert_eq!(
+            rows,
+            [
+                "| `run_index` | i64 | – | – |  | index of the run; with master_seed it fixes the run's random stream |",
+                "| `kappa_coeff` | f64 | `kappa_coeff` | `9` | 1/bit | kappa = exp(-kappa_coeff * H_MF in bits) (Eq. 7) |",
+                "| `first_reward_step` | i64, null | steps | 1-based experiment step whose transition first reached the goal; null if none |",
+                "| `step` | i64 | steps | experiment step of the row |",
+            ]
+        );
+        // A `|` in a text would end its cell early.
+        assert_eq!(cell("a | b"), "a \\| b");
     }
 }
