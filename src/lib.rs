@@ -14,6 +14,7 @@ pub mod cli;
 pub mod env;
 pub mod expert;
 pub mod human;
+pub mod limits;
 pub mod meta;
 pub mod output;
 pub mod params;

@@ -254,6 +254,7 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
                 "series": series_path.display().to_string(),
             },
             "runs": total,
+            "batch_size": batch_size,
             "seconds": started.elapsed().as_secs_f64(),
             "controllers": json_rows(&rows),
         });

@@ -76,13 +76,20 @@ pub enum RunError {
     /// left, and `--resume` runs the rest.
     #[error(transparent)]
     Interrupted(#[from] pipeline::Interrupted),
+    /// A batch's memory could not be obtained.
+    #[error(transparent)]
+    Memory(#[from] pipeline::MemoryError),
 }
 
 impl RunError {
     /// Whether the user can fix it by changing the command or the folder (exit 2), rather than
     /// a failure while running (exit 1).
     pub fn is_usage(&self) -> bool {
-        matches!(self, RunError::Store(s) if s.is_usage())
+        match self {
+            RunError::Store(s) => s.is_usage(),
+            RunError::Memory(m) => matches!(m, pipeline::MemoryError::RunTooLarge { .. }),
+            _ => false,
+        }
     }
 }
 
@@ -273,14 +280,29 @@ pub fn execute(
     let mut shard_runs = 0u64;
     let mut shard_done = 0u64;
     let mut steps_to_run = 0u64;
+    // The run needing the most memory (its task and configuration) sizes the batches.
+    let mut largest: Option<(u64, usize, crate::batch::RunConfig)> = None;
     for config in shard.configs(sweep.configurations()) {
         shard_runs += seeds;
         let missing = missing_runs(&scan.done, config, seeds);
         shard_done += seeds - missing;
         if missing > 0 {
-            steps_to_run += missing * pipeline::run_steps(&sweep.resolve(config).params);
+            let resolved = sweep.resolve(config);
+            steps_to_run += missing * pipeline::run_steps(&resolved.params);
+            let bytes = pipeline::bytes_per_run(&specs[resolved.task], &resolved.params);
+            if largest.is_none_or(|(b, _, _)| bytes > b) {
+                let run =
+                    pipeline::run_config(resolved.params, sweep.master_seed, config, seeds, 0);
+                largest = Some((bytes, resolved.task, run));
+            }
         }
     }
+    let batch_size = match largest {
+        Some((_, task, run)) => {
+            pipeline::plan_batch_size(&specs[task], &[run], options.batch_size)?
+        }
+        None => options.batch_size.max(1),
+    };
     let to_run = shard_runs - shard_done;
     if shard_done > 0 {
         events(Event::Resuming {
@@ -294,7 +316,7 @@ pub fn execute(
     });
     let mut job = pipeline::Job {
         schedules: &sweep.schedules,
-        batch_size: options.batch_size.max(1),
+        batch_size,
         writer: Parts {
             sweep,
             dir: out,
