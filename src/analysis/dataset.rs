@@ -934,12 +934,7 @@ fn locate_sweep(
         .strays
         .iter()
         .filter(|f| f.parent() == Some(table_dir.as_path()))
-        .map(|f| {
-            ignored(
-                f,
-                "not a part the sweep committed (its parts are named part-FIRST-LAST.parquet)",
-            )
-        })
+        .map(|f| store::stray_warning(f))
         .collect();
     if !committed.is_complete() {
         let total = committed

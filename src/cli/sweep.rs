@@ -312,6 +312,9 @@ pub fn compact(args: &CompactArgs) -> Result<(), Failure> {
         store::StoreError::Io { .. } | store::StoreError::Output(_) => runtime(e),
         _ => usage(e),
     })?;
+    for stray in &done.strays {
+        eprintln!("warning: {}", store::stray_warning(stray));
+    }
     outln!(
         "{}: {} runs in {} part(s) per table, {} before",
         args.dir.display(),

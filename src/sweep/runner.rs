@@ -268,6 +268,9 @@ pub fn execute(
     store::init_folder(out, &sweep.text, &sweep.file)?;
     let owned = |first_run: u64| shard.owns(first_run / seeds);
     let scan = store::scan(out, total, &owned)?;
+    for stray in &scan.strays {
+        events(Event::Warning(&store::stray_warning(stray)));
+    }
     if !options.resume && (scan.own_parts > 0 || !scan.leftovers.is_empty()) {
         return Err(StoreError::AlreadyStarted {
             dir: out.clone(),
