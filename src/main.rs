@@ -7,7 +7,8 @@ fn main() {
     install_panic_hook();
     if let Err(failure) = mbmf::cli::main_with_args(std::env::args_os()) {
         // writeln, not the panicking macro: a closed stderr must not turn an error into a panic.
-        let _ = writeln!(std::io::stderr(), "error: {:#}", failure.error);
+        let message = mbmf::cli::error_line(&failure.error);
+        let _ = writeln!(std::io::stderr(), "error: {message}");
         std::process::exit(failure.code);
     }
 }

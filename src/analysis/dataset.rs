@@ -1345,6 +1345,12 @@ impl Filter {
                 column: c.trim().to_owned(),
                 value: v.trim().to_owned(),
             }),
+            Some(_) => Err(DatasetError::BadFilter {
+                text: text.to_owned(),
+                reason: "the column name before '=' is empty: expected COLUMN=VALUE, e.g. \
+                         --where controller=ec or --where budget=50"
+                    .to_owned(),
+            }),
             _ => Err(DatasetError::BadFilter {
                 text: text.to_owned(),
                 reason: "expected COLUMN=VALUE, e.g. --where controller=ec or --where budget=50"

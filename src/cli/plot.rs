@@ -21,7 +21,7 @@ pub struct PlotArgs {
     #[command(flatten)]
     pub data: Dataset,
     /// Column of the runs table whose values define the curves (e.g. controller, interaction).
-    #[arg(long)]
+    #[arg(long, value_parser = super::args::column)]
     pub by: String,
     /// What to draw: cum_reward, cum_cost or p_mb (the series' p_mb_mean).
     #[arg(long, default_value = "cum_reward", value_parser = CurveMetric::parse)]

@@ -117,20 +117,13 @@ fn controller_params(args: &RunArgs) -> Result<Vec<Params>> {
 /// once.
 fn warnings(args: &RunArgs, schedule: &Schedule, params: &[Params], spec: &Spec) -> Vec<String> {
     let mut warnings = Vec::new();
-    for (i, &c) in args.controller.iter().enumerate() {
-        let times = args.controller.iter().filter(|&&k| k == c).count();
-        if times > 1 && !args.controller[..i].contains(&c) {
-            let times = match times {
-                2 => "twice".to_string(),
-                n => format!("{n} times"),
-            };
-            warnings.push(format!(
-                "--controller lists {} {times}: each listing adds --runs {} runs (with other \
-                 run indices), and the summary merges them into one row",
-                c.name(),
-                args.runs
-            ));
-        }
+    for (first, times) in crate::suggest::repeats(&args.controller) {
+        warnings.push(format!(
+            "--controller lists {} {times}: each listing adds --runs {} runs (with other run \
+             indices), and the summary merges them into one row",
+            args.controller[first].name(),
+            args.runs
+        ));
     }
     // A budget is spent by an interaction: from --interaction, the profile, or a later change.
     let changes_human = schedule.changes.iter().any(|c| {
@@ -153,11 +146,7 @@ fn warnings(args: &RunArgs, schedule: &Schedule, params: &[Params], spec: &Spec)
         ));
     }
     if !spec.can_move() {
-        warnings.push(format!(
-            "--task {}: the world has no transition at all, so the robot never moves and never \
-             reaches the goal",
-            args.task
-        ));
+        warnings.push(format!("--{}", super::args::no_transition(&args.task)));
     }
     warnings
 }

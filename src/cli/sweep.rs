@@ -115,9 +115,9 @@ pub fn command(args: &SweepArgs) -> Result<(), Failure> {
     for (task, spec) in sweep.tasks.iter().zip(&specs) {
         if !spec.can_move() {
             eprintln!(
-                "warning: {}: task {task}: the world has no transition at all, so the robot \
-                 never moves and never reaches the goal",
-                sweep.place(crate::sweep::keys::Key::Task)
+                "warning: {}: {}",
+                sweep.place(crate::sweep::keys::Key::Task),
+                super::args::no_transition(task)
             );
         }
     }
