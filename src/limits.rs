@@ -6,6 +6,7 @@
 //! `ulimit -d` / RLIMIT_DATA minus VmData). A Slurm job with `--mem=2G` on a large node, or a
 //! container with a memory limit, is planned for its limit rather than for the node.
 
+use std::cell::Cell;
 use std::fmt;
 use std::path::{Path, PathBuf};
 
@@ -19,9 +20,51 @@ pub const ROOT_VAR: &str = "MBMF_SYSTEM_ROOT";
 const UNLIMITED: u64 = 1 << 62;
 
 /// Address space a worker thread may reserve beyond what is mapped when the limits are read:
-/// its stack (2 MiB) and a malloc arena (64 MiB on 64-bit glibc). Counted only against
-/// RLIMIT_AS, which charges reservations as well as memory in use.
-const ADDRESS_SPACE_PER_THREAD: u64 = 66 << 20;
+/// its stack (2 MiB). Counted only against RLIMIT_AS, which charges reservations as well as
+/// memory in use.
+const ADDRESS_SPACE_PER_THREAD: u64 = 2 << 20;
+
+/// Address space of the malloc arenas beside the main one under an address-space limit
+/// ([`fit_malloc_to_limits`]): one of 64 MiB on 64-bit glibc, shared by every thread.
+const ARENA_BYTES: u64 = 64 << 20;
+
+/// Under an address-space limit (`ulimit -v`), caps glibc's malloc at one arena beside the
+/// main one: each thread that allocates otherwise reserves an arena of 64 MiB of address space
+/// (up to 8 per core), which the limit charges though almost none of it is used, so a job
+/// planned for the limit would run out of address space midway. Without such a limit nothing
+/// changes. Call once, early, before threads start.
+pub fn fit_malloc_to_limits() {
+    #[cfg(all(target_os = "linux", target_env = "gnu"))]
+    if Rlimits::current().address_space.is_some() {
+        // SAFETY: mallopt only sets a tunable of the allocator; no other thread runs yet.
+        unsafe {
+            libc::mallopt(libc::M_ARENA_MAX, 2);
+        }
+    }
+}
+
+thread_local! {
+    /// Set while this thread asks for memory it can do without ([`can_reserve`]).
+    static PROBING: Cell<bool> = const { Cell::new(false) };
+}
+
+/// Whether this thread is asking for memory it can do without ([`can_reserve`]): an allocator
+/// that ends the process when memory runs out (the binary's) lets this failure through.
+pub fn probing() -> bool {
+    PROBING.with(Cell::get)
+}
+
+/// Whether `bytes` of address space can be had now: reserved and released at once, nothing
+/// touched. Under `ulimit -v` this fails as the allocation itself would.
+pub fn can_reserve(bytes: u64) -> bool {
+    PROBING.with(|p| p.set(true));
+    let mut probe: Vec<u8> = Vec::new();
+    let reserved = usize::try_from(bytes)
+        .ok()
+        .is_some_and(|n| probe.try_reserve_exact(n).is_ok());
+    PROBING.with(|p| p.set(false));
+    reserved
+}
 
 /// The limit that leaves the least memory.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -91,6 +134,17 @@ impl fmt::Display for Bound {
 }
 
 impl Bound {
+    /// Bytes of [`Bound::headroom`] a batch may take. Half of memory, the other half kept for
+    /// the Parquet encoding buffers, the allocator and the rest of the process; a quarter under
+    /// a resource limit, which also charges what malloc and the compression library reserve
+    /// without using (their arenas and buffers grow with the work, beyond the resident memory).
+    pub fn batch_share(&self) -> u64 {
+        match self {
+            Bound::Available { .. } | Bound::Cgroup { .. } => self.headroom() / 2,
+            Bound::AddressSpace { .. } | Bound::Data { .. } => self.headroom() / 4,
+        }
+    }
+
     /// Bytes this limit leaves.
     pub fn headroom(&self) -> u64 {
         match self {
@@ -151,7 +205,9 @@ pub fn memory_under(root: &Path, rlimits: Rlimits, threads: usize) -> Option<Bou
     }
     bounds.extend(cgroup(root));
     if let Some(limit) = rlimits.address_space {
-        let reserved = ADDRESS_SPACE_PER_THREAD.saturating_mul(threads as u64);
+        let reserved = ADDRESS_SPACE_PER_THREAD
+            .saturating_mul(threads as u64)
+            .saturating_add(ARENA_BYTES);
         let usage = kib_field(&status, "VmSize:")
             .unwrap_or(0)
             .saturating_add(reserved);
@@ -302,7 +358,8 @@ mod tests {
             address_space: Some(1 << 30),
             data: Some(600 << 20),
         };
-        // 1 GiB - 100 MiB - 2 threads x 66 MiB = 792 MiB; 600 MiB - 10 MiB = 590 MiB binds.
+        // 1 GiB - 100 MiB - 2 threads x 2 MiB - 64 MiB = 856 MiB; 600 MiB - 10 MiB = 590 MiB
+        // binds.
         let bound = memory_under(root, limits, 2).expect("a bound");
         assert_eq!(bound.headroom(), 590 << 20);
         let limits = Rlimits {
@@ -311,7 +368,7 @@ mod tests {
         };
         assert_eq!(
             memory_under(root, limits, 2).expect("a bound").headroom(),
-            792 << 20
+            856 << 20
         );
         assert_eq!(memory_under(root, Rlimits::default(), 2), None);
     }

@@ -1,9 +1,49 @@
 //! The `mbmf` binary: parse, run, and turn any error into a message and an exit code (2 for
 //! usage errors, 1 for runtime failures).
 
+use std::alloc::{GlobalAlloc, Layout, System};
 use std::io::Write as _;
 
+/// The system allocator, except that running out of memory ends the process with a message,
+/// exit code 1 and its temporary files removed, instead of Rust's abort (exit 134) that leaves
+/// them. A failed probe of [`mbmf::limits::can_reserve`] is returned to it as usual.
+struct ExitOnOutOfMemory;
+
+/// `pointer`, unless it is null for an allocation that cannot be done without.
+fn checked(pointer: *mut u8, bytes: usize) -> *mut u8 {
+    if pointer.is_null() && !mbmf::limits::probing() {
+        mbmf::cli::signal::out_of_memory(bytes);
+    }
+    pointer
+}
+
+// SAFETY: every call is forwarded to `System` with its arguments unchanged.
+unsafe impl GlobalAlloc for ExitOnOutOfMemory {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        checked(unsafe { System.alloc(layout) }, layout.size())
+    }
+
+    unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
+        checked(unsafe { System.alloc_zeroed(layout) }, layout.size())
+    }
+
+    unsafe fn realloc(&self, pointer: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        checked(
+            unsafe { System.realloc(pointer, layout, new_size) },
+            new_size,
+        )
+    }
+
+    unsafe fn dealloc(&self, pointer: *mut u8, layout: Layout) {
+        unsafe { System.dealloc(pointer, layout) }
+    }
+}
+
+#[global_allocator]
+static ALLOCATOR: ExitOnOutOfMemory = ExitOnOutOfMemory;
+
 fn main() {
+    mbmf::limits::fit_malloc_to_limits();
     install_panic_hook();
     if let Err(failure) = mbmf::cli::main_with_args(std::env::args_os()) {
         // writeln, not the panicking macro: a closed stderr must not turn an error into a panic.

@@ -365,8 +365,8 @@ pub struct BatchPlan {
     pub size: usize,
     /// Estimated bytes of the largest run ([`bytes_per_run`]).
     pub per_run: u64,
-    /// Bytes a batch may take: half of what the tightest limit leaves, the other half kept for
-    /// the Parquet encoding buffers, the allocator and the rest of the process.
+    /// Bytes a batch may take: a share of what the tightest limit leaves
+    /// ([`limits::Bound::batch_share`]).
     pub budget: u64,
     /// The tightest limit ([`limits::memory`]), `None` when the system says nothing.
     pub bound: Option<limits::Bound>,
@@ -413,8 +413,8 @@ pub enum MemoryError {
     },
 }
 
-/// Runs to simulate at once: `requested`, lowered so that a batch fits in half of the memory
-/// the tightest limit leaves (the memory available, the cgroup's limit, `ulimit -v` or
+/// Runs to simulate at once: `requested`, lowered so that a batch fits in a share (half, a
+/// quarter under a resource limit) of the memory the tightest limit leaves (the memory available, the cgroup's limit, `ulimit -v` or
 /// `ulimit -d`; [`limits::memory`]). A run that alone needs more than that limit leaves is
 /// refused, naming the limit and the flag that would shrink it, instead of failing an
 /// allocation midway.
@@ -433,7 +433,7 @@ pub fn plan_batch(
             per_run: 0,
             budget: bound
                 .as_ref()
-                .map_or(DEFAULT_BATCH_BYTES, |b| b.headroom() / 2),
+                .map_or(DEFAULT_BATCH_BYTES, |b| b.batch_share()),
             bound,
         });
     };
@@ -466,12 +466,12 @@ pub fn plan_batch_size(
     plan_batch(spec, configs, requested).map(|p| p.size)
 }
 
-/// The plan for runs of at most `per_run` bytes under `bound`: `requested`, lowered to what half
-/// of the bound's headroom holds, at least 1.
+/// The plan for runs of at most `per_run` bytes under `bound`: `requested`, lowered to what the
+/// bound's share for batches holds, at least 1.
 pub fn fit_batch(per_run: u64, requested: usize, bound: Option<limits::Bound>) -> BatchPlan {
     let budget = bound
         .as_ref()
-        .map_or(DEFAULT_BATCH_BYTES, |b| b.headroom() / 2);
+        .map_or(DEFAULT_BATCH_BYTES, |b| b.batch_share());
     let fit = usize::try_from(budget / per_run.max(1)).unwrap_or(usize::MAX);
     BatchPlan {
         size: requested.min(fit).max(1),
@@ -487,11 +487,7 @@ pub fn fit_batch(per_run: u64, requested: usize, bound: Option<limits::Bound>) -
 /// rather than an abort in the middle of an allocation.
 fn reserve(bytes: u64, runs: usize) -> Result<(), MemoryError> {
     let want = bytes.saturating_add(bytes / 2);
-    let mut probe: Vec<u8> = Vec::new();
-    let reserved = usize::try_from(want)
-        .ok()
-        .is_some_and(|n| probe.try_reserve_exact(n).is_ok());
-    if reserved {
+    if limits::can_reserve(want) {
         return Ok(());
     }
     Err(MemoryError::Allocation {

@@ -188,7 +188,10 @@ fn under_ulimit_v_batches_shrink_and_nothing_aborts() {
         );
         assert!(!err.contains("memory allocation of"), "{err}");
         if code != Some(0) {
-            assert!(err.contains("ulimit -v"), "{err}");
+            assert!(
+                err.contains("ulimit -v") && err.contains("--batch-size"),
+                "{err}"
+            );
         }
         assert!(
             leftovers(out.path()).is_empty(),
@@ -197,7 +200,7 @@ fn under_ulimit_v_batches_shrink_and_nothing_aborts() {
         );
     }
     // Too little for even one run: refused before the first step, naming the limit.
-    let run = under_ulimit(100_000, &args);
+    let run = under_ulimit(60_000, &args);
     let err = String::from_utf8_lossy(&run.stderr);
     assert_eq!(run.status.code(), Some(2), "{err}");
     assert!(
@@ -209,4 +212,51 @@ fn under_ulimit_v_batches_shrink_and_nothing_aborts() {
         "{:?}",
         leftovers(out.path())
     );
+}
+
+#[test]
+fn a_sweep_plans_its_batches_for_the_cgroup_limit_too() {
+    let root = TempDir::new().expect("tempdir");
+    let dir = TempDir::new().expect("tempdir");
+    write(root.path(), "proc/self/cgroup", "0::/\n");
+    // At the mount itself (a cgroup namespace): 200 MiB limit, 50 MiB in use.
+    write(root.path(), "sys/fs/cgroup/memory.max", "209715200\n");
+    write(root.path(), "sys/fs/cgroup/memory.current", "52428800\n");
+    let file = common::write_sweep(
+        dir.path(),
+        "big.toml",
+        "seeds = 100\n[fixed]\ntask = \"tidy1\"\ncontroller = \"mf\"\nsteps = 2000\n\
+         checkpoint = 1\n",
+    );
+    let out = dir.path().join("out");
+    let run = mbmf()
+        .env(ROOT_VAR, root.path())
+        .args(["sweep", &file, "--quiet", "--json", "--out"])
+        .arg(&out)
+        .output()
+        .expect("mbmf starts");
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let spec = mbmf::env::load("tidy1").expect("tidy1");
+    let params = Params {
+        controller: Controller::Mf,
+        steps: 2000,
+        checkpoint: 1,
+        ..Params::default()
+    };
+    let per_run = mbmf::pipeline::bytes_per_run(&spec, &params);
+    let expected = ((150u64 << 20) / 2 / per_run) as usize;
+    assert!(expected < 100, "the limit must bind: {expected}");
+    let report: serde_json::Value = serde_json::from_slice(&run.stdout).expect("JSON");
+    assert_eq!(report["batch_size"], expected, "{report}");
+    // Parts of at most that many runs hold every run once.
+    assert_eq!(
+        report["parts_written"],
+        100usize.div_ceil(expected),
+        "{report}"
+    );
+    assert_eq!(report["ran"], 100, "{report}");
 }

@@ -231,6 +231,7 @@ pub fn command(args: &SweepArgs) -> Result<(), Failure> {
             "done_before": report.done_before,
             "ran": report.ran,
             "parts_written": report.parts_written,
+            "batch_size": report.batch_size,
             "seconds": report.seconds,
         });
         outln!("{json}");

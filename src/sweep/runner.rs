@@ -112,6 +112,8 @@ pub struct Report {
     pub ran: u64,
     /// Parts written by this process.
     pub parts_written: usize,
+    /// Runs per batch (and so per part): the requested size, lowered to fit in memory.
+    pub batch_size: usize,
     /// Wall-clock seconds.
     pub seconds: f64,
 }
@@ -349,6 +351,7 @@ pub fn execute(
         done_before: scan.done.len(),
         ran,
         parts_written,
+        batch_size,
         seconds: started.elapsed().as_secs_f64(),
     })
 }
