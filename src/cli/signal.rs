@@ -128,12 +128,12 @@ pub fn out_of_memory(bytes: usize) -> ! {
         let mut buffer = [0u8; 400];
         let len = {
             let mut cursor = std::io::Cursor::new(&mut buffer[..]);
-            let _ = write!(
+            let _ = writeln!(
                 cursor,
                 "error: out of memory: an allocation of {bytes} bytes failed (a memory limit such \
                  as ulimit -v or the job's); the results in progress were removed (a sweep keeps \
                  its committed parts for --resume); lower --batch-size, or raise --checkpoint or \
-                 lower --steps\n"
+                 lower --steps"
             );
             cursor.position() as usize
         };
