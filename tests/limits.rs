@@ -43,6 +43,21 @@ fn under_ulimit(kib: u64, args: &[&str]) -> Output {
         .expect("bash starts")
 }
 
+/// The batch size for 150 MiB of headroom (a cgroup's 200 MiB limit, 50 MiB in use), by hand:
+/// half of it for batches, over the bytes of one tidy1 mf run of 2000 steps checkpointed at
+/// every step.
+fn batch_in_150_mib() -> usize {
+    let spec = mbmf::env::load("tidy1").expect("tidy1");
+    let params = Params {
+        controller: Controller::Mf,
+        steps: 2000,
+        checkpoint: 1,
+        ..Params::default()
+    };
+    let per_run = mbmf::pipeline::bytes_per_run(&spec, &params);
+    ((150u64 << 20) / 2 / per_run) as usize
+}
+
 #[test]
 fn a_cgroup_limit_sizes_the_batches() {
     let root = TempDir::new().expect("tempdir");
@@ -75,15 +90,7 @@ fn a_cgroup_limit_sizes_the_batches() {
         "{}",
         String::from_utf8_lossy(&run.stderr)
     );
-    let spec = mbmf::env::load("tidy1").expect("tidy1");
-    let params = Params {
-        controller: Controller::Mf,
-        steps: 2000,
-        checkpoint: 1,
-        ..Params::default()
-    };
-    let per_run = mbmf::pipeline::bytes_per_run(&spec, &params);
-    let expected = ((150u64 << 20) / 2 / per_run) as usize;
+    let expected = batch_in_150_mib();
     assert!(expected < 200, "the limit must bind: {expected}");
     let report: serde_json::Value = serde_json::from_slice(&run.stdout).expect("JSON");
     assert_eq!(report["batch_size"], expected, "{report}");
@@ -240,15 +247,7 @@ fn a_sweep_plans_its_batches_for_the_cgroup_limit_too() {
         "{}",
         String::from_utf8_lossy(&run.stderr)
     );
-    let spec = mbmf::env::load("tidy1").expect("tidy1");
-    let params = Params {
-        controller: Controller::Mf,
-        steps: 2000,
-        checkpoint: 1,
-        ..Params::default()
-    };
-    let per_run = mbmf::pipeline::bytes_per_run(&spec, &params);
-    let expected = ((150u64 << 20) / 2 / per_run) as usize;
+    let expected = batch_in_150_mib();
     assert!(expected < 100, "the limit must bind: {expected}");
     let report: serde_json::Value = serde_json::from_slice(&run.stdout).expect("JSON");
     assert_eq!(report["batch_size"], expected, "{report}");
