@@ -40,7 +40,15 @@ macro_rules! always {
     )*};
 }
 
-always!(true: crate::params::ConfigError, crate::sweep::SweepError, crate::pipeline::TooLarge);
+always!(true: crate::params::ConfigError, crate::sweep::SweepError);
+
+impl Usage for crate::pipeline::MemoryError {
+    /// A run too large for the limits is an input that can never work here; an allocation that
+    /// failed while running is a failure like a full disk.
+    fn is_usage(&self) -> bool {
+        matches!(self, crate::pipeline::MemoryError::RunTooLarge { .. })
+    }
+}
 always!(false: IoError, crate::output::OutputError, crate::pipeline::Interrupted);
 
 impl Usage for crate::sweep::RunError {

@@ -19,6 +19,7 @@ pub mod env;
 pub mod error;
 pub mod expert;
 pub mod human;
+pub mod limits;
 pub mod meta;
 pub mod output;
 pub mod params;

@@ -1,6 +1,7 @@
 //! The `mbmf` binary: parse, run, and turn any error into a message and an exit code (2 for
 //! usage errors, 1 for runtime failures).
 
+use std::alloc::{GlobalAlloc, Layout, System};
 use std::io::Write as _;
 
 mod cli;
@@ -13,22 +14,63 @@ use mbmf::{
     reproduce, rng, run, run_stats, schedule, sizing, suggest, sweep, whole_file,
 };
 
+/// The system allocator, except that running out of memory ends the process with a message,
+/// exit code 1 and its temporary files removed, instead of Rust's abort (exit 134) that leaves
+/// them. A failed probe of [`mbmf::limits::can_reserve`] is returned to it as usual.
+struct ExitOnOutOfMemory;
+
+/// `pointer`, unless it is null for an allocation that cannot be done without.
+fn checked(pointer: *mut u8, bytes: usize) -> *mut u8 {
+    if pointer.is_null() && !mbmf::limits::probing() {
+        cli::signal::out_of_memory(bytes);
+    }
+    pointer
+}
+
+// SAFETY: every call is forwarded to `System` with its arguments unchanged.
+unsafe impl GlobalAlloc for ExitOnOutOfMemory {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        checked(unsafe { System.alloc(layout) }, layout.size())
+    }
+
+    unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
+        checked(unsafe { System.alloc_zeroed(layout) }, layout.size())
+    }
+
+    unsafe fn realloc(&self, pointer: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        checked(
+            unsafe { System.realloc(pointer, layout, new_size) },
+            new_size,
+        )
+    }
+
+    unsafe fn dealloc(&self, pointer: *mut u8, layout: Layout) {
+        unsafe { System.dealloc(pointer, layout) }
+    }
+}
+
+#[global_allocator]
+static ALLOCATOR: ExitOnOutOfMemory = ExitOnOutOfMemory;
+
 fn main() {
+    mbmf::limits::fit_malloc_to_limits();
     install_panic_hook();
     use clap::Parser as _;
     // Help and version requests print and exit 0; argument errors print clap's message (with
     // its suggestion for a typo) and exit 2.
     let parsed = match cli::Cli::try_parse_from(std::env::args_os()) {
         Ok(parsed) => parsed,
-        Err(e) => {
+        Err(mut e) => {
             let code = if e.use_stderr() { cli::EXIT_USAGE } else { 0 };
+            cli::suggest_verb(&mut e);
             let _ = e.print();
             std::process::exit(code);
         }
     };
     if let Err(failure) = cli::execute(&parsed) {
         // writeln, not the panicking macro: a closed stderr must not turn an error into a panic.
-        let _ = writeln!(std::io::stderr(), "error: {:#}", failure.error);
+        let message = cli::error_line(&failure.error);
+        let _ = writeln!(std::io::stderr(), "error: {message}");
         std::process::exit(failure.code);
     }
 }

@@ -15,6 +15,7 @@ use arrow::datatypes::{Field, Schema};
 
 use crate::batch::{Batch, RunConfig};
 use crate::env::Spec;
+use crate::limits;
 use crate::output::{self, OutputError, ParquetSink};
 use crate::params::{ConfigError, Params};
 use crate::schedule::Schedule;
@@ -118,7 +119,7 @@ impl<W: Writer> Job<'_, W> {
         mut observe: impl FnMut(&Batch) -> Result<(), E>,
     ) -> Result<(), E>
     where
-        E: From<ConfigError> + From<Interrupted> + From<W::Error>,
+        E: From<ConfigError> + From<MemoryError> + From<Interrupted> + From<W::Error>,
     {
         if progress(0).is_break() {
             return Err(Interrupted.into());
@@ -149,7 +150,7 @@ impl<W: Writer> Job<'_, W> {
 
 /// Simulates `configs` on `spec` without changes, as [`Job::simulate`] does, handing each
 /// finished batch to `on_batch`.
-pub fn simulate<E: From<ConfigError>>(
+pub fn simulate<E: From<ConfigError> + From<MemoryError>>(
     spec: &Arc<Spec>,
     configs: &[RunConfig],
     batch_size: usize,
@@ -168,7 +169,7 @@ pub fn simulate<E: From<ConfigError>>(
 
 /// The loop of [`Job::simulate`]: `on_batch` gets each finished batch and the position of its
 /// first run in `configs`; `Break` when `progress` stopped it.
-fn batches<E: From<ConfigError>>(
+fn batches<E: From<ConfigError> + From<MemoryError>>(
     spec: &Arc<Spec>,
     configs: &[RunConfig],
     schedules: &[Schedule],
@@ -182,6 +183,8 @@ fn batches<E: From<ConfigError>>(
         let which = run_schedule
             .get(k * size..k * size + chunk.len())
             .unwrap_or(&[]);
+        let bytes = chunk.iter().map(|c| bytes_per_run(spec, &c.params)).sum();
+        reserve(bytes, chunk.len())?;
         let mut batch = Batch::with_schedules(Arc::clone(spec), chunk.to_vec(), schedules, which)?;
         let longest = chunk
             .iter()
@@ -351,73 +354,151 @@ fn memory_parts(spec: &Spec, params: &Params) -> [(u64, &'static str); 3] {
     ]
 }
 
-/// Memory of this machine: (available now, installed), in bytes, when the system says.
-fn system_memory() -> Option<(u64, u64)> {
-    let info = std::fs::read_to_string("/proc/meminfo").ok()?;
-    let field = |name: &str| {
-        info.lines()
-            .find_map(|l| l.strip_prefix(name))
-            .and_then(|rest| {
-                rest.trim()
-                    .trim_end_matches("kB")
-                    .trim()
-                    .parse::<u64>()
-                    .ok()
-            })
-            .map(|kib| kib.saturating_mul(1024))
-    };
-    Some((field("MemAvailable:")?, field("MemTotal:")?))
-}
-
-/// One run needs more memory than this machine has: the message names the flag that would
-/// shrink it. A usage error: the same inputs can never run here.
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("{0}")]
-pub struct TooLarge(pub String);
-
 /// Memory a batch may use when the system does not say how much there is.
 const DEFAULT_BATCH_BYTES: u64 = 2 << 30;
 
-/// Runs to simulate at once: `requested`, lowered so that a batch fits in half of the memory
-/// available now. A run that alone needs more than the machine's memory is refused, naming the
-/// flag that would shrink it, instead of failing an allocation midway.
-pub fn plan_batch_size(
+/// A batch size planned for the memory this process may use.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct BatchPlan {
+    /// Runs simulated at once.
+    pub size: usize,
+    /// Estimated bytes of the largest run ([`bytes_per_run`]).
+    pub per_run: u64,
+    /// Bytes a batch may take: a share of what the tightest limit leaves
+    /// ([`limits::Bound::batch_share`]).
+    pub budget: u64,
+    /// The tightest limit ([`limits::memory`]), `None` when the system says nothing.
+    pub bound: Option<limits::Bound>,
+}
+
+/// A job that cannot get the memory it needs.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum MemoryError {
+    /// One run alone needs more than the tightest limit leaves: refused before the first step.
+    #[error(
+        "one run needs about {need} of memory, more than the {room} left by {bound}: {fix} \
+         ({states} states x {actions} actions, window-n {window_n}, {rows} series rows per run)"
+    )]
+    RunTooLarge {
+        /// Estimated bytes of the run.
+        need: String,
+        /// Bytes the limit leaves.
+        room: String,
+        /// The limit that binds.
+        bound: String,
+        /// The flag that shrinks the run.
+        fix: &'static str,
+        /// States of the task.
+        states: usize,
+        /// Actions of the task.
+        actions: usize,
+        /// The run's window.
+        window_n: u32,
+        /// Its checkpoint rows.
+        rows: usize,
+    },
+    /// The memory of a batch could not be obtained when it was about to be allocated.
+    #[error(
+        "cannot allocate about {need} for a batch of {runs} run(s): out of memory under {bound}; \
+         lower --batch-size, or raise --checkpoint or lower --steps (fewer series rows per run)"
+    )]
+    Allocation {
+        /// Bytes asked for.
+        need: String,
+        /// Runs of the batch.
+        runs: usize,
+        /// The tightest limit when it failed.
+        bound: String,
+    },
+}
+
+/// Runs to simulate at once: `requested`, lowered so that a batch fits in a share (half, a
+/// quarter under a resource limit) of the memory the tightest limit leaves (the memory available, the cgroup's limit, `ulimit -v` or
+/// `ulimit -d`; [`limits::memory`]). A run that alone needs more than that limit leaves is
+/// refused, naming the limit and the flag that would shrink it, instead of failing an
+/// allocation midway.
+pub fn plan_batch(
     spec: &Spec,
     configs: &[RunConfig],
     requested: usize,
-) -> Result<usize, TooLarge> {
+) -> Result<BatchPlan, MemoryError> {
+    let bound = limits::memory();
     let Some(largest) = configs
         .iter()
         .max_by_key(|c| bytes_per_run(spec, &c.params))
     else {
-        return Ok(requested.max(1));
+        return Ok(BatchPlan {
+            size: requested.max(1),
+            per_run: 0,
+            budget: bound
+                .as_ref()
+                .map_or(DEFAULT_BATCH_BYTES, |b| b.batch_share()),
+            bound,
+        });
     };
     let per_run = bytes_per_run(spec, &largest.params).max(1);
-    let (budget, installed) = match system_memory() {
-        Some((available, total)) => (available / 2, total),
-        None => (DEFAULT_BATCH_BYTES, u64::MAX),
-    };
-    if per_run > installed {
+    if let Some(b) = &bound
+        && per_run > b.headroom()
+    {
         let parts = memory_parts(spec, &largest.params);
         let (_, fix) = parts.iter().max_by_key(|&&(b, _)| b).expect("three parts");
-        return Err(TooLarge(format!(
-            "one run needs about {} of memory, more than this machine's {}: {fix} \
-             ({} states x {} actions, window-n {}, {} series rows per run)",
-            gib(per_run),
-            gib(installed),
-            spec.n_states,
-            spec.n_actions,
-            largest.params.window_n,
-            crate::batch::checkpoint_count(&largest.params)
-        )));
+        return Err(MemoryError::RunTooLarge {
+            need: human(per_run),
+            room: human(b.headroom()),
+            bound: b.to_string(),
+            fix,
+            states: spec.n_states,
+            actions: spec.n_actions,
+            window_n: largest.params.window_n,
+            rows: crate::batch::checkpoint_count(&largest.params),
+        });
     }
-    let fit = usize::try_from(budget / per_run).unwrap_or(usize::MAX);
-    Ok(requested.min(fit).max(1))
+    Ok(fit_batch(per_run, requested, bound))
 }
 
-/// A byte count in GiB, for messages.
-fn gib(bytes: u64) -> String {
-    format!("{:.1} GiB", bytes as f64 / f64::from(1u32 << 30))
+/// [`plan_batch`]'s size alone.
+pub fn plan_batch_size(
+    spec: &Spec,
+    configs: &[RunConfig],
+    requested: usize,
+) -> Result<usize, MemoryError> {
+    plan_batch(spec, configs, requested).map(|p| p.size)
+}
+
+/// The plan for runs of at most `per_run` bytes under `bound`: `requested`, lowered to what the
+/// bound's share for batches holds, at least 1.
+pub fn fit_batch(per_run: u64, requested: usize, bound: Option<limits::Bound>) -> BatchPlan {
+    let budget = bound
+        .as_ref()
+        .map_or(DEFAULT_BATCH_BYTES, |b| b.batch_share());
+    let fit = usize::try_from(budget / per_run.max(1)).unwrap_or(usize::MAX);
+    BatchPlan {
+        size: requested.min(fit).max(1),
+        per_run,
+        budget,
+        bound,
+    }
+}
+
+/// Checks, just before a batch of `runs` runs is allocated, that the process can still get its
+/// `bytes` and half as much again for encoding it: the address space is reserved and released
+/// at once (nothing is touched), so that a limit reached turns into an error that cleans up
+/// rather than an abort in the middle of an allocation.
+fn reserve(bytes: u64, runs: usize) -> Result<(), MemoryError> {
+    let want = bytes.saturating_add(bytes / 2);
+    if limits::can_reserve(want) {
+        return Ok(());
+    }
+    Err(MemoryError::Allocation {
+        need: human(want),
+        runs,
+        bound: limits::memory().map_or_else(|| "the system's memory".into(), |b| b.to_string()),
+    })
+}
+
+/// A byte count for messages.
+fn human(bytes: u64) -> String {
+    crate::sizing::human_bytes(u128::from(bytes))
 }
 
 #[cfg(test)]

@@ -31,7 +31,7 @@ use crate::env::Spec;
 use crate::error::IoError;
 use crate::output::{self, OutputError};
 use crate::params::{ConfigError, Controller, Interaction, Params};
-use crate::pipeline::{self, Interrupted, TooLarge};
+use crate::pipeline::{self, Interrupted, MemoryError};
 use crate::schedule::{self, Schedule, ScheduleError};
 use crate::sizing::{self, SizeError};
 
@@ -131,9 +131,10 @@ pub enum RunError {
     /// No configuration, or no run per configuration.
     #[error("nothing to run: {0}")]
     Empty(&'static str),
-    /// One run does not fit in this machine's memory.
+    /// One run does not fit in the memory this process may use, or a batch's memory could not be
+    /// obtained.
     #[error(transparent)]
-    TooLarge(#[from] TooLarge),
+    Memory(#[from] MemoryError),
     /// The job's output does not fit on the disk, or it would take too long.
     #[error(transparent)]
     Size(#[from] SizeError),
@@ -165,10 +166,9 @@ impl crate::error::Usage for RunError {
             RunError::Invalid(_)
                 | RunError::Change(_)
                 | RunError::Empty(_)
-                | RunError::TooLarge(_)
                 | RunError::Size(_)
                 | RunError::Out(_)
-        )
+        ) || matches!(self, RunError::Memory(m) if crate::error::Usage::is_usage(m))
     }
 }
 
@@ -433,20 +433,13 @@ pub fn execute(job: Job, stop: &AtomicBool, progress: impl FnMut(u64)) -> Result
 fn warnings(job: &Job) -> Vec<String> {
     let mut warnings = Vec::new();
     let controllers: Vec<Controller> = job.configs.iter().map(|p| p.controller).collect();
-    for (i, &c) in controllers.iter().enumerate() {
-        let times = controllers.iter().filter(|&&k| k == c).count();
-        if times > 1 && !controllers[..i].contains(&c) {
-            let times = match times {
-                2 => "twice".to_string(),
-                n => format!("{n} times"),
-            };
-            warnings.push(format!(
-                "--controller lists {} {times}: each listing adds --runs {} runs (with other \
-                 run indices), and the summary merges them into one row",
-                c.name(),
-                job.runs
-            ));
-        }
+    for (first, times) in crate::suggest::repeats(&controllers) {
+        warnings.push(format!(
+            "--controller lists {} {times}: each listing adds --runs {} runs (with other run \
+             indices), and the summary merges them into one row",
+            controllers[first].name(),
+            job.runs
+        ));
     }
     // A budget is spent by an interaction: from the parameters, the profile, or a later change.
     let changes_human = job.schedule.changes.iter().any(|c| {
@@ -471,13 +464,18 @@ fn warnings(job: &Job) -> Vec<String> {
         ));
     }
     if !job.spec.can_move() {
-        warnings.push(format!(
-            "--task {}: the world has no transition at all, so the robot never moves and never \
-             reaches the goal",
-            job.task
-        ));
+        warnings.push(format!("--{}", no_transition(&job.task)));
     }
     warnings
+}
+
+/// The warning for a task whose world has no transition (every action leaves every state as
+/// it is): legal, but its runs are surely a mistake. Shared by `run`, `sweep` and `env info`.
+pub fn no_transition(task: &str) -> String {
+    format!(
+        "task {task}: the world has no transition at all (every action leaves every state \
+         as it is), so the robot never moves and never reaches the goal"
+    )
 }
 
 /// Checks and creates the output folder; returns the paths of runs.parquet and series.parquet.

@@ -2,20 +2,27 @@
 //! module, so that parameters, environments, sweep files and datasets share it without
 //! depending on each other.
 
-/// Edit distance (insertions, deletions, substitutions) between two short words.
+/// Edit distance (insertions, deletions, substitutions, and swaps of two neighbouring letters,
+/// the commonest typo: `rnu` is one edit from `run`) between two short words.
 pub fn edit_distance(a: &str, b: &str) -> usize {
+    let a: Vec<char> = a.chars().collect();
     let b: Vec<char> = b.chars().collect();
-    let mut row: Vec<usize> = (0..=b.len()).collect();
-    for (i, ca) in a.chars().enumerate() {
-        let mut diagonal = row[0];
-        row[0] = i + 1;
-        for (j, &cb) in b.iter().enumerate() {
-            let substitute = diagonal + usize::from(ca != cb);
-            diagonal = row[j + 1];
-            row[j + 1] = substitute.min(row[j] + 1).min(diagonal + 1);
+    // Three rows of the optimal-string-alignment table: two back, previous, current.
+    let mut before: Vec<usize> = vec![0; b.len() + 1];
+    let mut previous: Vec<usize> = (0..=b.len()).collect();
+    for i in 1..=a.len() {
+        let mut row = vec![i; b.len() + 1];
+        for j in 1..=b.len() {
+            let substitute = previous[j - 1] + usize::from(a[i - 1] != b[j - 1]);
+            let mut d = substitute.min(previous[j] + 1).min(row[j - 1] + 1);
+            if i > 1 && j > 1 && a[i - 1] == b[j - 2] && a[i - 2] == b[j - 1] {
+                d = d.min(before[j - 2] + 1);
+            }
+            row[j] = d;
         }
+        before = std::mem::replace(&mut previous, row);
     }
-    row[b.len()]
+    previous[b.len()]
 }
 
 /// Case and `-`/`_` do not count as typos: `Alpha-MF` is `alpha_mf`.
@@ -28,7 +35,11 @@ fn normalise(word: &str) -> String {
 /// close does one `_`-separated word of a name count (`cost` for `cost_total`). Ties go to the
 /// shorter name.
 pub fn closest<'a>(word: &str, candidates: impl IntoIterator<Item = &'a str>) -> Option<&'a str> {
-    let word = normalise(word);
+    let word = normalise(word.trim());
+    // Nothing typed is no typo of anything.
+    if word.is_empty() {
+        return None;
+    }
     let close = |part: &str| {
         let (d, len) = (edit_distance(&word, part), part.chars().count());
         (d < len && d <= 1 + len / 3).then_some(d)
@@ -57,6 +68,24 @@ pub fn hint<'a>(word: &str, candidates: impl IntoIterator<Item = &'a str>) -> St
     closest(word, candidates).map_or_else(String::new, |c| format!("did you mean '{c}'? "))
 }
 
+/// The values of `values` listed more than once, each once, in the order of their first
+/// listing: (index of that first listing, `twice` or `N times`). The one rule of the warnings
+/// for a value repeated in a sweep file's `[grid]` and on the command line (`--controller
+/// ec,ec`).
+pub fn repeats<T: PartialEq>(values: &[T]) -> Vec<(usize, String)> {
+    (0..values.len())
+        .filter(|&i| !values[..i].contains(&values[i]))
+        .filter_map(|i| {
+            let times = values.iter().filter(|v| **v == values[i]).count();
+            match times {
+                1 => None,
+                2 => Some((i, "twice".to_string())),
+                n => Some((i, format!("{n} times"))),
+            }
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -81,6 +110,7 @@ mod tests {
         assert_eq!(closest("COST_TOTAL", names), Some("cost_total"));
         assert_eq!(closest("cost", names), Some("cost_total"));
         assert_eq!(closest("banana", names), None);
+        assert_eq!(closest("", ["q_init", "tau", "q"]), None);
         assert_eq!(closest("kapa", ["kappa_coeff", "tau"]), Some("kappa_coeff"));
         assert_eq!(closest("kappa-coef", ["kappa_coeff"]), Some("kappa_coeff"));
         assert_eq!(
@@ -90,9 +120,21 @@ mod tests {
     }
 
     #[test]
+    fn repeats_are_named_once_at_their_first_listing() {
+        let listed = ["ec", "mf", "ec", "rnd", "mf", "ec"];
+        assert_eq!(
+            repeats(&listed),
+            vec![(0, "3 times".to_string()), (1, "twice".to_string())]
+        );
+        assert!(repeats(&["a", "b"]).is_empty());
+    }
+
+    #[test]
     fn edit_distance_counts_insertions_deletions_and_substitutions() {
         assert_eq!(edit_distance("kitten", "sitting"), 3);
         assert_eq!(edit_distance("", "abc"), 3);
         assert_eq!(edit_distance("abc", "abc"), 0);
+        assert_eq!(edit_distance("rnu", "run"), 1);
+        assert_eq!(closest("rnu", ["env", "run", "stats"]), Some("run"));
     }
 }

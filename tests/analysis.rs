@@ -1033,8 +1033,7 @@ fn parts_of_another_schema_or_sweep_are_refused_naming_the_file() {
     }
     let e = run_usage_error(&["min-budget", d]);
     assert!(
-        e.contains("part-000000-000099.parquet")
-            && e.contains(&format!("which {} holds too", names[0])),
+        e.contains("part-000000-000099.parquet") && e.contains(&format!("{} holds too", names[0])),
         "{e}"
     );
 

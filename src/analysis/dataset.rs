@@ -912,12 +912,7 @@ fn locate_sweep(
         .strays
         .iter()
         .filter(|f| f.parent() == Some(table_dir.as_path()))
-        .map(|f| {
-            ignored(
-                f,
-                "not a part the sweep committed (its parts are named part-FIRST-LAST.parquet)",
-            )
-        })
+        .map(|f| store::stray_warning(f))
         .collect();
     if !committed.is_complete() {
         let total = committed
@@ -1317,6 +1312,12 @@ impl Filter {
             Some((c, v)) if !c.trim().is_empty() => Ok(Filter {
                 column: c.trim().to_owned(),
                 value: v.trim().to_owned(),
+            }),
+            Some(_) => Err(DatasetError::BadFilter {
+                text: text.to_owned(),
+                reason: "the column name before '=' is empty: expected COLUMN=VALUE, e.g. \
+                         --where controller=ec or --where budget=50"
+                    .to_owned(),
             }),
             _ => Err(DatasetError::BadFilter {
                 text: text.to_owned(),

@@ -93,10 +93,10 @@ pub struct StatsArgs {
     #[command(flatten)]
     pub data: Dataset,
     /// Column whose values define the groups (e.g. controller, budget, kappa_coeff).
-    #[arg(long)]
+    #[arg(long, value_parser = super::args::column)]
     pub by: String,
     /// Numeric column to compare (e.g. total_reward, cost_total, mean_entropy_chosen).
-    #[arg(long, default_value = "total_reward")]
+    #[arg(long, default_value = "total_reward", value_parser = super::args::column)]
     pub metric: String,
     /// Print one JSON object on stdout instead of the tables (the groups and the pairs).
     #[arg(long)]
@@ -112,7 +112,7 @@ pub struct MinBudgetArgs {
     pub data: Dataset,
     /// Numeric column to compare between budgets: total_reward (default) or reward_last10 (the
     /// accumulation rate at the end of the run).
-    #[arg(long, default_value = "total_reward")]
+    #[arg(long, default_value = "total_reward", value_parser = super::args::column)]
     pub metric: String,
     /// Significance level of the one-sided tests (SPEC 9: 0.05).
     #[arg(long, default_value_t = DEFAULT_ALPHA, value_parser = super::args::number, allow_hyphen_values = true)]

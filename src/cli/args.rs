@@ -130,13 +130,10 @@ pub fn number(text: &str) -> Result<f64, String> {
         .map_err(|_| "expected a number, such as 0.5 or 1e-3".to_string())
 }
 
-/// Parses a whole number in `min..=max`, saying which rule a bad value breaks.
+/// Parses a whole number in `min..=max`, saying which rule a bad value breaks (the maximum
+/// included, even the largest 64-bit one).
 pub fn whole(text: &str, min: u64, max: u64) -> Result<u64, String> {
-    let range = if max == u64::MAX {
-        format!("a whole number >= {min}")
-    } else {
-        format!("a whole number from {min} to {max}")
-    };
+    let range = format!("a whole number from {min} to {max}");
     match text.trim().parse::<i128>() {
         Ok(n) if n < i128::from(min) => Err(format!("{n} is too small: expected {range}")),
         Ok(n) if n > i128::from(max) => Err(format!("{n} is too large: expected {range}")),
@@ -162,6 +159,21 @@ pub fn runs_count(text: &str) -> Result<u32, String> {
 pub fn seed(text: &str) -> Result<u64, String> {
     whole(text, 0, u64::MAX)
 }
+
+/// A column name of `--by` or `--metric`: an empty one is refused here, with the flag, rather
+/// than looked up (and matched to some unrelated column) in the dataset.
+pub fn column(text: &str) -> Result<String, String> {
+    if text.trim().is_empty() {
+        return Err(
+            "the column name is empty: give a column of the dataset, such as \
+                    controller, budget or total_reward"
+                .to_string(),
+        );
+    }
+    Ok(text.to_string())
+}
+
+pub use crate::run::no_transition;
 
 /// `--batch-size`: at least 1.
 pub fn batch_size(text: &str) -> Result<usize, String> {

@@ -41,6 +41,9 @@ pub fn command(cmd: &EnvCommand) -> Result<(), Failure> {
         EnvCommand::Info { task, files } => {
             let spec = load_task(task, files.key_states.as_deref(), files.spaces.as_deref())
                 .map_err(usage)?;
+            if !spec.can_move() {
+                eprintln!("warning: {}", super::args::no_transition(task));
+            }
             out!("{}", env_info(&spec));
             Ok(())
         }
@@ -97,13 +100,25 @@ fn refuse_overwriting_sources(
             .find(|s| std::fs::canonicalize(s).is_ok_and(|s| s == target_real))
         {
             return Err(usage(anyhow!(
-                "--json {}: exporting there would overwrite {}, which '{task}' was loaded                  from; choose another folder",
+                "--json {}: exporting there would overwrite {}, which '{task}' was loaded \
+                 from; choose another folder",
                 dir.display(),
                 source.display()
             )));
         }
     }
     Ok(())
+}
+
+/// A number as a person reads it: plain, or in scientific notation when plain would spell out
+/// dozens of digits (`1e306`, `2.5e-9`).
+fn readable(x: f64) -> String {
+    let magnitude = x.abs();
+    if magnitude != 0.0 && !(1e-4..1e9).contains(&magnitude) {
+        format!("{x:e}")
+    } else {
+        format!("{x}")
+    }
 }
 
 /// Initial states shown by `mbmf env info` before "...".
@@ -140,7 +155,8 @@ fn env_info(spec: &Spec) -> String {
     let _ = writeln!(
         out,
         "goal      {} ({goal_name}), reward {}",
-        spec.goal, spec.goal_reward
+        spec.goal,
+        readable(spec.goal_reward)
     );
     let _ = writeln!(
         out,

@@ -161,6 +161,45 @@ pub enum Command {
     Man(docs::ManArgs),
 }
 
+/// Adds a "similar subcommand" tip, by the rule of [`crate::suggest`], to an unknown verb that
+/// clap found none for (`rnu` for `run`: clap's own rule misses transpositions).
+pub fn suggest_verb(e: &mut clap::Error) {
+    use clap::CommandFactory as _;
+    use clap::error::{ContextKind, ContextValue, ErrorKind};
+    if e.kind() != ErrorKind::InvalidSubcommand || e.get(ContextKind::SuggestedSubcommand).is_some()
+    {
+        return;
+    }
+    let Some(ContextValue::String(verb)) = e.get(ContextKind::InvalidSubcommand) else {
+        return;
+    };
+    let command = Cli::command();
+    let names = command.get_subcommands().map(|c| c.get_name());
+    if let Some(name) = crate::suggest::closest(verb, names) {
+        let suggestion = ContextValue::Strings(vec![name.to_string()]);
+        e.insert(ContextKind::SuggestedSubcommand, suggestion);
+    }
+}
+
+/// Turns an error and its causes into one line, each cause once: a cause whose text an earlier
+/// message already holds (a Parquet error that quotes its I/O error, which it also gives as its
+/// source) is not repeated, and Parquet's `External: ` prefix is dropped.
+pub fn error_line(error: &anyhow::Error) -> String {
+    let mut line = String::new();
+    for cause in error.chain() {
+        let text = cause.to_string();
+        let text = text.replace("External: ", "");
+        if text.is_empty() || line.contains(&text) {
+            continue;
+        }
+        if !line.is_empty() {
+            line.push_str(": ");
+        }
+        line.push_str(&text);
+    }
+    line
+}
+
 /// Runs the verb of parsed arguments.
 pub fn execute(cli: &Cli) -> Result<(), Failure> {
     if let Some(n) = cli.threads {

@@ -26,7 +26,7 @@ pub struct PlotArgs {
     /// Column of the runs table whose values define the curves (e.g. controller, interaction);
     /// a numeric column (a swept parameter) is drawn on a colour scale with a colour bar.
     /// Optional with --x (one curve of all runs).
-    #[arg(long, required_unless_present = "x")]
+    #[arg(long, required_unless_present = "x", value_parser = super::args::column)]
     pub by: Option<String>,
     /// Draw a response curve instead: the mean of --metric (a numeric column of the runs
     /// table) at each value of this numeric column of the runs table (e.g. kappa_coeff,

@@ -158,6 +158,7 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
                 "series": series_path.display().to_string(),
             },
             "runs": done.runs,
+            "batch_size": batch_size,
             "seconds": done.seconds,
             "controllers": json_rows(&done.rows),
         });

@@ -66,14 +66,7 @@ fn on_signal(signal: i32) {
         );
         return;
     }
-    // A poisoned lock still holds the paths.
-    let paths = match CLEANUP.lock() {
-        Ok(paths) => paths.clone(),
-        Err(poisoned) => poisoned.into_inner().clone(),
-    };
-    for path in &paths {
-        let _ = std::fs::remove_dir_all(path).or_else(|_| std::fs::remove_file(path));
-    }
+    remove_registered();
     let first = RECEIVED.load(Ordering::SeqCst);
     let _ = writeln!(
         stderr,
@@ -103,6 +96,48 @@ fn name(signal: i32) -> &'static str {
     } else {
         "SIGINT"
     }
+}
+
+/// Removes the paths registered with [`remove_on_forced_exit`]. Never waits: a lock held
+/// elsewhere (by the thread that failed, in [`out_of_memory`]) skips the cleanup, which the
+/// next command on the folder does instead.
+fn remove_registered() {
+    // A poisoned lock still holds the paths.
+    let paths = match CLEANUP.try_lock() {
+        Ok(paths) => paths.clone(),
+        Err(std::sync::TryLockError::Poisoned(poisoned)) => poisoned.into_inner().clone(),
+        Err(std::sync::TryLockError::WouldBlock) => return,
+    };
+    for path in &paths {
+        let _ = std::fs::remove_dir_all(path).or_else(|_| std::fs::remove_file(path));
+    }
+}
+
+/// Ends the process after an allocation of `bytes` failed (the binary's allocator calls it
+/// instead of Rust's abort): says so, removes the registered temporary paths as a second
+/// signal does, and exits with code 1. The message is formatted on the stack; should the
+/// cleanup itself run out of memory, the nested call exits at once.
+pub fn out_of_memory(bytes: usize) -> ! {
+    static ENDING: AtomicBool = AtomicBool::new(false);
+    if !ENDING.swap(true, Ordering::SeqCst) {
+        let mut buffer = [0u8; 400];
+        let len = {
+            let mut cursor = std::io::Cursor::new(&mut buffer[..]);
+            let _ = writeln!(
+                cursor,
+                "error: out of memory: an allocation of {bytes} bytes failed (a memory limit such \
+                 as ulimit -v or the job's); the results in progress were removed (a sweep keeps \
+                 its committed parts for --resume); lower --batch-size, or raise --checkpoint or \
+                 lower --steps"
+            );
+            cursor.position() as usize
+        };
+        // SAFETY: writes `len` initialised bytes of `buffer` to standard error.
+        let _ = unsafe { libc::write(2, buffer.as_ptr().cast(), len) };
+        remove_registered();
+    }
+    // SAFETY: ends the process without running anything more that could allocate.
+    unsafe { libc::_exit(super::EXIT_RUNTIME) }
 }
 
 /// Has a second signal remove `path` (a file or a folder) before it exits.

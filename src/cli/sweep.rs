@@ -115,9 +115,9 @@ pub fn command(args: &SweepArgs) -> Result<(), Failure> {
     for (task, spec) in sweep.tasks.iter().zip(&specs) {
         if !spec.can_move() {
             eprintln!(
-                "warning: {}: task {task}: the world has no transition at all, so the robot \
-                 never moves and never reaches the goal",
-                sweep.place(crate::sweep::keys::Key::Task)
+                "warning: {}: {}",
+                sweep.place(crate::sweep::keys::Key::Task),
+                super::args::no_transition(task)
             );
         }
     }
@@ -232,6 +232,7 @@ pub fn command(args: &SweepArgs) -> Result<(), Failure> {
             "done_before": report.done_before,
             "ran": report.ran,
             "parts_written": report.parts_written,
+            "batch_size": report.batch_size,
             "seconds": report.seconds,
         });
         outln!("{json}");
@@ -315,6 +316,9 @@ pub fn compact(args: &CompactArgs) -> Result<(), Failure> {
             _ => usage(e),
         },
     )?;
+    for stray in &done.strays {
+        eprintln!("warning: {}", store::stray_warning(stray));
+    }
     outln!(
         "{}: {} runs in {} part(s) per table, {} before",
         args.dir.display(),

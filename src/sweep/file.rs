@@ -777,21 +777,12 @@ impl Parser<'_> {
         items: &[Spanned<DeValue<'_>>],
         values: &[Value],
     ) {
-        let mut count: HashMap<String, (usize, usize)> = HashMap::new();
-        for (i, v) in values.iter().enumerate() {
-            count.entry(v.to_string()).or_insert((i, 0)).1 += 1;
-        }
-        let mut repeated: Vec<(usize, usize)> = count.into_values().filter(|c| c.1 > 1).collect();
-        repeated.sort_unstable();
-        for (first, times) in repeated {
+        let names: Vec<String> = values.iter().map(ToString::to_string).collect();
+        for (first, times) in crate::suggest::repeats(&names) {
             let item = &items[first];
             let written = match item.get_ref() {
                 DeValue::String(text) => format!("\"{text}\""),
                 other => as_written(other),
-            };
-            let times = match times {
-                2 => "twice".to_string(),
-                n => format!("{n} times"),
             };
             self.warnings.push(format!(
                 "{}:{}: key '{}' in {section} lists {written} {times}: its configurations run \
@@ -1156,7 +1147,7 @@ impl Sweep {
                     seeds = as_int(v.get_ref())
                         .and_then(|n| u32::try_from(n).ok())
                         .filter(|n| *n >= 1)
-                        .ok_or_else(|| p.src.err(&v.span(), "seeds", "key 'seeds': the number of runs per configuration, a whole number >= 1".into()))?;
+                        .ok_or_else(|| p.src.err(&v.span(), "seeds", format!("key 'seeds': the number of runs per configuration, a whole number from 1 to {}", u32::MAX)))?;
                 }
                 "master_seed" => {
                     master_seed = as_int(v.get_ref())
@@ -1165,7 +1156,10 @@ impl Sweep {
                             p.src.err(
                                 &v.span(),
                                 "master_seed",
-                                "key 'master_seed': a whole number from 0 to 2^63 - 1".into(),
+                                format!(
+                                    "key 'master_seed': a whole number from 0 to {} (2^64 - 1)",
+                                    u64::MAX
+                                ),
                             )
                         })?;
                 }

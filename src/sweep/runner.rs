@@ -78,13 +78,20 @@ pub enum RunError {
     /// left, and `--resume` runs the rest.
     #[error(transparent)]
     Interrupted(#[from] pipeline::Interrupted),
+    /// A batch's memory could not be obtained.
+    #[error(transparent)]
+    Memory(#[from] pipeline::MemoryError),
 }
 
 impl RunError {
     /// Whether the user can fix it by changing the command or the folder (exit 2), rather than
     /// a failure while running (exit 1).
     pub fn is_usage(&self) -> bool {
-        matches!(self, RunError::Store(s) if s.is_usage())
+        match self {
+            RunError::Store(s) => s.is_usage(),
+            RunError::Memory(m) => matches!(m, pipeline::MemoryError::RunTooLarge { .. }),
+            _ => false,
+        }
     }
 }
 
@@ -107,6 +114,8 @@ pub struct Report {
     pub ran: u64,
     /// Parts written by this process.
     pub parts_written: usize,
+    /// Runs per batch (and so per part): the requested size, lowered to fit in memory.
+    pub batch_size: usize,
     /// Wall-clock seconds.
     pub seconds: f64,
 }
@@ -264,6 +273,9 @@ pub fn execute(
     store::init_folder(out, &sweep.text, &sweep.file)?;
     let owned = |first_run: u64| shard.owns(first_run / seeds);
     let scan = store::scan(out, total, &owned)?;
+    for stray in &scan.strays {
+        events(Event::Warning(&store::stray_warning(stray)));
+    }
     if !options.resume && (scan.own_parts > 0 || !scan.leftovers.is_empty()) {
         return Err(StoreError::AlreadyStarted {
             dir: out.clone(),
@@ -276,14 +288,29 @@ pub fn execute(
     let mut shard_runs = 0u64;
     let mut shard_done = 0u64;
     let mut steps_to_run = 0u64;
+    // The run needing the most memory (its task and configuration) sizes the batches.
+    let mut largest: Option<(u64, usize, crate::batch::RunConfig)> = None;
     for config in shard.configs(sweep.configurations()) {
         shard_runs += seeds;
         let missing = missing_runs(&scan.done, config, seeds);
         shard_done += seeds - missing;
         if missing > 0 {
-            steps_to_run += missing * pipeline::run_steps(&sweep.resolve(config).params);
+            let resolved = sweep.resolve(config);
+            steps_to_run += missing * pipeline::run_steps(&resolved.params);
+            let bytes = pipeline::bytes_per_run(&specs[resolved.task], &resolved.params);
+            if largest.is_none_or(|(b, _, _)| bytes > b) {
+                let run =
+                    pipeline::run_config(resolved.params, sweep.master_seed, config, seeds, 0);
+                largest = Some((bytes, resolved.task, run));
+            }
         }
     }
+    let batch_size = match largest {
+        Some((_, task, run)) => {
+            pipeline::plan_batch_size(&specs[task], &[run], options.batch_size)?
+        }
+        None => options.batch_size.max(1),
+    };
     let to_run = shard_runs - shard_done;
     if shard_done > 0 {
         events(Event::Resuming {
@@ -297,7 +324,7 @@ pub fn execute(
     });
     let mut job = pipeline::Job {
         schedules: &sweep.schedules,
-        batch_size: options.batch_size.max(1),
+        batch_size,
         writer: Parts {
             sweep,
             dir: out,
@@ -327,6 +354,7 @@ pub fn execute(
         done_before: scan.done.len(),
         ran,
         parts_written,
+        batch_size,
         seconds: started.elapsed().as_secs_f64(),
     })
 }

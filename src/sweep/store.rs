@@ -464,6 +464,41 @@ pub struct Scan {
     /// Leftovers of killed processes of this shard: temporary files and uncommitted series
     /// parts, to delete before writing.
     pub leftovers: Vec<PathBuf>,
+    /// Files that are not parts (copies such as `part-… (1).parquet`, files put there by
+    /// hand): never counted, never deleted.
+    pub strays: Vec<PathBuf>,
+}
+
+/// The files of `runs/` and `series/` (named `runs` and `series`, listed in `dir`) that are
+/// neither parts nor a writer's temporary files.
+fn strays(dir: &Path, runs: &[String], series: &[String]) -> Vec<PathBuf> {
+    [(RUNS_DIR, runs), (SERIES_DIR, series)]
+        .into_iter()
+        .flat_map(|(sub, names)| {
+            names
+                .iter()
+                .filter(|n| !n.starts_with('.') && part_first(n).is_none())
+                .map(move |n| dir.join(sub).join(n))
+        })
+        .collect()
+}
+
+/// The warning for a stray file of a dataset (see [`Scan::strays`]), the same for every verb.
+pub fn stray_warning(file: &Path) -> String {
+    format!(
+        "ignoring {}: not a part the sweep committed (its parts are named \
+         part-FIRST-LAST.parquet); it is not counted",
+        file.display()
+    )
+}
+
+/// The committed part among `names` (in `runs_dir`) that holds `run`, for messages.
+fn holder_of(runs_dir: &Path, names: &[String], run: u64) -> Option<PathBuf> {
+    names
+        .iter()
+        .filter(|n| matches!(part_first(n), Some((_, true))))
+        .map(|n| runs_dir.join(n))
+        .find(|path| read_runs_part(path).is_ok_and(|(runs, _)| runs.contains(&run)))
 }
 
 fn list(dir: &Path) -> Result<Vec<String>, StoreError> {
@@ -534,7 +569,7 @@ pub fn scan(dir: &Path, total: u64, owned: &dyn Fn(u64) -> bool) -> Result<Scan,
         Vec::new()
     };
     let version = env!("CARGO_PKG_VERSION");
-    for name in &runs_names {
+    for (i, name) in runs_names.iter().enumerate() {
         let Some((first, committed)) = part_first(name) else {
             continue;
         };
@@ -578,11 +613,14 @@ pub fn scan(dir: &Path, total: u64, owned: &dyn Fn(u64) -> bool) -> Result<Scan,
                 });
             }
             if !done.insert(run) {
+                // Found again only on this error path, so a scan holds no run-to-part map.
+                let other = holder_of(&runs_dir, &runs_names[..i], run)
+                    .map_or_else(|| "another part".to_owned(), |p| p.display().to_string());
                 return Err(StoreError::BadPart {
                     path,
                     reason: format!(
-                        "holds run {run}, which another part holds too: delete one of the two \
-                         parts (with its series part) and resume"
+                        "holds run {run}, which {other} holds too (a copy under another part \
+                         name?): delete one of the two parts (with its series part) and resume"
                     ),
                 });
             }
@@ -618,6 +656,7 @@ pub fn scan(dir: &Path, total: u64, owned: &dyn Fn(u64) -> bool) -> Result<Scan,
         parts: scan_parts,
         own_parts,
         leftovers,
+        strays: strays(dir, &runs_names, &series_names),
     })
 }
 
@@ -673,6 +712,9 @@ pub struct Compacted {
     pub parts_before: usize,
     /// Part files after (per table).
     pub parts_after: usize,
+    /// Files of `runs/` and `series/` that are not parts: left out of the merge and kept as
+    /// they are.
+    pub strays: Vec<PathBuf>,
 }
 
 /// Why a dataset cannot be compacted (besides the errors of [`StoreError`]).
@@ -846,6 +888,11 @@ pub fn compact(dir: &Path, target_runs: u64, command: &str) -> Result<Compacted,
         }
         fs::copy(dir.join(SWEEP_FILE), staging.join(SWEEP_FILE))
             .map_err(io("write", &staging.join(SWEEP_FILE)))?;
+        // Not ours to delete: strays move over with the dataset, unmerged.
+        for stray in &scan.strays {
+            let to = staging.join(stray.strip_prefix(dir).unwrap_or(stray));
+            fs::copy(stray, &to).map_err(io("write", &to))?;
+        }
         let mut parts_after = 0;
         let target = target_runs.max(1);
         for parts in groups.values() {
@@ -905,6 +952,7 @@ pub fn compact(dir: &Path, target_runs: u64, command: &str) -> Result<Compacted,
         runs: total,
         parts_before: names.len(),
         parts_after,
+        strays: scan.strays,
     })
 }
 
@@ -1048,14 +1096,7 @@ pub fn committed(dir: &Path) -> Result<Committed, StoreError> {
     };
     let runs_names = names_in(RUNS_DIR)?;
     let series_names = names_in(SERIES_DIR)?;
-    let mut strays = Vec::new();
-    for (sub, names) in [(RUNS_DIR, &runs_names), (SERIES_DIR, &series_names)] {
-        for name in names {
-            if !name.starts_with('.') && part_first(name).is_none() {
-                strays.push(dir.join(sub).join(name));
-            }
-        }
-    }
+    let strays = strays(dir, &runs_names, &series_names);
     let mut parts = Vec::new();
     let mut total: Option<u64> = None;
     let mut holder: Vec<(u64, usize)> = Vec::new();
@@ -1124,8 +1165,10 @@ pub fn committed(dir: &Path) -> Result<Committed, StoreError> {
             return Err(StoreError::BadPart {
                 path: dir.join(RUNS_DIR).join(b),
                 reason: format!(
-                    "holds run {run}, which {a} holds too: the same run would be counted twice; \
-                     delete one of the two parts (with its series part) and resume"
+                    "holds run {run}, which {} holds too (a copy under another part name?): the \
+                     same run would be counted twice; delete one of the two parts (with its \
+                     series part) and resume",
+                    dir.join(RUNS_DIR).join(a).display()
                 ),
             });
         }

@@ -15,7 +15,6 @@ use std::sync::Arc;
 
 use mbmf::batch::{Batch, RunConfig};
 use mbmf::env::{self, Spec};
-use mbmf::params::ConfigError;
 use mbmf::pipeline;
 
 /// Columns that legitimately differ between two runs of the same sweep.
@@ -311,7 +310,7 @@ where
             |_| {},
             |batch: &Batch| {
                 out.extend((0..batch.len()).map(|r| each(batch, r)));
-                Ok::<(), ConfigError>(())
+                Ok::<(), anyhow::Error>(())
             },
         )
         .expect("valid configurations");
