@@ -382,24 +382,6 @@ registry::registry! {
         "tidy1 box assignment at the start: position i gives cube i's box (rgb by default)";
 }
 
-/// tidy1's box assignments as sweep files and flags name them: permutations of `rgb`, position
-/// i the box of cube i.
-const BOX_NAMES: &[&str] = &["rgb", "rbg", "grb", "gbr", "brg", "bgr"];
-
-impl ParamValue for Boxes {
-    const KIND: Kind = Kind::Choice(BOX_NAMES);
-    fn to_value(self) -> Value {
-        let name = self.to_string();
-        Value::Choice(BOX_NAMES.iter().find(|n| **n == name).unwrap_or(&"rgb"))
-    }
-    fn from_value(value: &Value) -> Option<Self> {
-        match value {
-            Value::Choice(name) => Boxes::parse(name).ok(),
-            _ => None,
-        }
-    }
-}
-
 /// The paper's experiment length for a task: 20,000 steps for task 2, 10,000 otherwise (SPEC 7).
 pub fn default_steps(task: &str) -> u32 {
     if task == "tidy2" { 20_000 } else { 10_000 }
@@ -454,7 +436,7 @@ impl Params {
     /// (SPEC 5).
     pub fn validate_for(&self, spec: &crate::env::Spec) -> Result<(), ConfigError> {
         self.validate()?;
-        self.validate_for_reward(spec.goal_reward)?;
+        self.validate_for_reward(spec.max_abs_reward())?;
         if self.human.interaction != Interaction::None
             && self.human.budget > 0
             && spec.human.is_none()

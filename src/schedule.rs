@@ -14,7 +14,7 @@ use clap::ValueEnum;
 use thiserror::Error;
 
 use crate::env::tidy::{self, Boxes};
-use crate::env::{self, Spec, StateId};
+use crate::env::{self, Goal, Spec, StateId};
 use crate::params::{Interaction, Params, Profile, RewardSource};
 
 /// What changes at one step.
@@ -354,21 +354,9 @@ pub enum HumanChange {
 /// A compiled event: what it does to a run's cursor.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Action {
-    /// The run now lives in world `world` of the plan (a world swap, a deletion or, in `tidy1`,
-    /// a box assignment), with this goal.
-    World {
-        /// Index into [`Plan::worlds`].
-        world: u16,
-        /// The goal from now on.
-        goal: StateId,
-    },
-    /// The goal moves (and its reward changes, if given).
-    Goal {
-        /// The new goal.
-        state: StateId,
-        /// The new reward, or the current one.
-        reward: Option<f64>,
-    },
+    /// The run now lives in this world of the plan (an index into [`Plan::worlds`]): a world
+    /// swap, a deletion, a moved goal or, in `tidy1`, a box assignment.
+    World(u16),
     /// The human changes.
     Human(HumanChange),
 }
@@ -403,11 +391,10 @@ impl Plan {
     }
 }
 
-/// Adds `world` to the plan's worlds: the action that moves a run into it, with `goal`.
-fn enter(worlds: &mut Vec<Arc<Spec>>, world: Arc<Spec>, goal: StateId) -> Action {
+/// Adds `world` to the plan's worlds: the action that moves a run into it.
+fn enter(worlds: &mut Vec<Arc<Spec>>, world: Arc<Spec>) -> Action {
     worlds.push(world);
-    let world = (worlds.len() - 1) as u16;
-    Action::World { world, goal }
+    Action::World((worlds.len() - 1) as u16)
 }
 
 /// Checks `schedule` against the task `spec` (named `task`) for a run with `params`, loading
@@ -437,7 +424,6 @@ pub fn compile(
         Arc::clone(spec)
     };
     worlds.push(Arc::clone(&start));
-    let mut goal = start.goal;
     let has_human = start.human.is_some();
     let mut nuisance = params.human.interaction == Interaction::Nuisance;
     let mut actions = Vec::with_capacity(schedule.changes.len());
@@ -474,11 +460,12 @@ pub fn compile(
                     ));
                 }
                 // The goal, its reward and the initial states stay as they were (SPEC 10).
-                let mut world = loaded;
-                world.goal = here.goal;
-                world.goal_reward = here.goal_reward;
+                let mut world = match here.goal {
+                    Some(goal) => loaded.with_goal(goal),
+                    None => loaded,
+                };
                 world.initial_states = here.initial_states.clone();
-                enter(&mut worlds, Arc::new(world), goal)
+                enter(&mut worlds, Arc::new(world))
             }
             Event::Goal { state, reward } => {
                 if !is_json {
@@ -517,11 +504,18 @@ pub fn compile(
                         .validate_for_reward(*r)
                         .map_err(|e| fail(&event, e.to_string()))?;
                 }
-                goal = *state;
-                Action::Goal {
+                // The moved goal is another world of the same transitions: the step reads
+                // every arrival's reward from its world.
+                let reward = match (reward, here.goal) {
+                    (Some(r), _) => *r,
+                    (None, Some(g)) => g.reward,
+                    (None, None) => return Err(fail(&event, "the task has no goal to move")),
+                };
+                let world = Spec::clone(here).with_goal(Goal {
                     state: *state,
-                    reward: *reward,
-                }
+                    reward,
+                });
+                enter(&mut worlds, Arc::new(world))
             }
             Event::Boxes(boxes) => {
                 if !is_tidy1 {
@@ -535,8 +529,7 @@ pub fn compile(
                     return Err(fail(&event, reason));
                 }
                 let world = Arc::new(tidy::build_with(tidy::Variant::Task1, *boxes));
-                goal = world.goal;
-                enter(&mut worlds, world, goal)
+                enter(&mut worlds, world)
             }
             Event::Delete(pairs) => {
                 if !is_json {
@@ -547,7 +540,7 @@ pub fn compile(
                 }
                 let world =
                     delete(&worlds[worlds.len() - 1], pairs).map_err(|r| fail(&event, r))?;
-                enter(&mut worlds, Arc::new(world), goal)
+                enter(&mut worlds, Arc::new(world))
             }
             Event::Human(h @ HumanChange::Interaction(i)) => {
                 if *i != Interaction::None && !has_human {
@@ -573,7 +566,7 @@ pub fn compile(
                     ..*params
                 };
                 changed
-                    .validate_for_reward(start.goal_reward)
+                    .validate_for_reward(start.max_abs_reward())
                     .map_err(|e| fail(&event, e.to_string()))?;
                 Action::Human(*h)
             }
@@ -605,6 +598,14 @@ fn no_human(task: &str, interaction: &str) -> String {
 /// counts are kept and a pair left without outcome becomes a self-loop (SPEC 10, 2.3).
 pub fn delete(spec: &Spec, pairs: &[(StateId, StateId)]) -> Result<Spec, String> {
     let n_a = spec.n_actions;
+    // The rebuilt world gets its arrivals from the goal: a task whose outcomes carry their own
+    // rewards would lose them.
+    let Some(goal) = spec.goal else {
+        return Err(format!(
+            "'{}' has no single goal to rebuild its world around",
+            spec.name
+        ));
+    };
     for &(s, t) in pairs {
         if s as usize >= spec.n_states || t as usize >= spec.n_states {
             return Err(format!(
@@ -641,8 +642,7 @@ pub fn delete(spec: &Spec, pairs: &[(StateId, StateId)]) -> Result<Spec, String>
         n_a,
         outcomes,
         spec.initial_states.clone(),
-        spec.goal,
-        spec.goal_reward,
+        goal,
         spec.state_names.clone(),
         spec.human.clone(),
     ))
@@ -728,8 +728,10 @@ mod tests {
                 vec![(2, 1.0)],
             ],
             vec![0],
-            2,
-            1.0,
+            crate::env::Goal {
+                state: 2,
+                reward: 1.0,
+            },
             vec!["a".into(), "b".into(), "c".into()],
             None,
         );

@@ -8,12 +8,12 @@
 //! several.
 //!
 //! The events of the run's schedule due at an experiment step apply first, before anything of
-//! that step (SPEC 10); from then on the step reads the world, goal and human from the cursor.
+//! that step (SPEC 10); from then on the step reads the world and human from the cursor.
 
 use std::time::Instant;
 
 use super::{Checkpoint, RunView, Settled, initial_state, uniform};
-use crate::env::Spec;
+use crate::env::{Arrival, End, Spec};
 use crate::expert::{draw, ema, ema_into, entropy_bits, max_of, mf, softmax_biased};
 use crate::human::{self, Encounter};
 use crate::meta;
@@ -224,15 +224,18 @@ fn act<const KIND: u8, const HUMAN: bool, const NA: usize, const BABBLING: bool>
         spec.pick_outcome(sa, uniform(run.rng))
     };
     let mut next = spec.outcome_state[o] as usize;
-    // 11.2: a nuisance human undoes a relevant action before anything learns from it.
+    let mut arrival = spec.arrival[o];
+    // 11.2: a nuisance human undoes a relevant action before anything learns from it; the
+    // cube back on the table is never a goal, so the arrival brings nothing.
     if human_active && let Some(undone) = encounter(spec, human, run, t_exp).nuisance(sa) {
         next = undone;
+        arrival = Arrival::NOTHING;
     }
-    let terminal = next == run.cursor.goal as usize;
+    let terminal = arrival.terminal();
     let mut reward = if babbling || !terminal {
         0.0
     } else {
-        run.cursor.goal_reward
+        arrival.reward
     };
     // 11.1: where only the human brings reward, an arrival in the goal is an opportunity.
     if HUMAN && terminal && !babbling && run.cursor.reward_source == RewardSource::Human {
@@ -253,9 +256,9 @@ fn act<const KIND: u8, const HUMAN: bool, const NA: usize, const BABBLING: bool>
     let learned = if shaped { reward + human.zeta } else { reward };
     run.bonus[sa] = if shaped { 0 } else { g };
 
-    // 8. Learning, by every expert the controller runs. The arrival is terminal when it is the
-    // goal at this time (SPEC 10): both experts learn that from the transition itself.
-    run.cursor.pending_reset = terminal;
+    // 8. Learning, by every expert the controller runs. The arrival is terminal when the world
+    // at this time says so (SPEC 10): both experts learn that from the transition itself.
+    run.cursor.pending_reset = arrival.end == End::Reset;
     if controller.runs_mf() {
         // An `mf` run without a human keeps each Q row's maximum; other runs read the row.
         let future = match (KIND == MF && !HUMAN, terminal) {
@@ -569,16 +572,7 @@ fn apply_due(plan: &Plan, params: &Params, run: &mut RunView<'_>, t_exp: u32) {
         run.cursor.next_action += 1;
         let cursor = &mut *run.cursor;
         match action {
-            Action::World { world, goal } => {
-                cursor.world = world;
-                cursor.goal = goal;
-            }
-            Action::Goal { state, reward } => {
-                cursor.goal = state;
-                if let Some(r) = reward {
-                    cursor.goal_reward = r;
-                }
-            }
+            Action::World(world) => cursor.world = world,
             Action::Human(change) => match change {
                 HumanChange::Interaction(i) => cursor.human.interaction = i,
                 HumanChange::Budget(n) => cursor.budget_left = n,

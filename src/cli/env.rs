@@ -133,15 +133,20 @@ fn env_info(spec: &Spec) -> String {
     } else {
         writeln!(out, "initial   {initial:?}")
     };
-    let goal_name = spec
-        .state_names
-        .get(spec.goal as usize)
-        .map_or("?", String::as_str);
-    let _ = writeln!(
-        out,
-        "goal      {} ({goal_name}), reward {}",
-        spec.goal, spec.goal_reward
-    );
+    let _ = match spec.goal {
+        Some(goal) => {
+            let goal_name = spec
+                .state_names
+                .get(goal.state as usize)
+                .map_or("?", String::as_str);
+            writeln!(
+                out,
+                "goal      {} ({goal_name}), reward {}",
+                goal.state, goal.reward
+            )
+        }
+        None => writeln!(out, "goal      none (each outcome carries its own reward)"),
+    };
     let _ = writeln!(
         out,
         "human     {}",

@@ -36,6 +36,64 @@ pub struct HumanTables {
     pub nuisance: Vec<StateId>,
 }
 
+/// The rewarded, terminal state of a goal task and its reward (SPEC 2: every arrival in it is
+/// rewarded and followed by the reset step).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Goal {
+    /// The state.
+    pub state: StateId,
+    /// The reward of an arrival in it.
+    pub reward: f64,
+}
+
+/// How an arrival's reward is had.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Chance {
+    /// Always: no random draw.
+    Always,
+    /// With the probability held in slot `k` of the run's task state: one uniform draw, the
+    /// reward given when it is below that probability (SPEC 13).
+    Drawn(u8),
+}
+
+/// What an arrival does to the episode.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum End {
+    /// It goes on.
+    Continue,
+    /// The arrival is terminal and the next step is the reset step (SPEC 2.1).
+    Reset,
+    /// The arrival is terminal and already the start of the next episode: no reset step
+    /// (SPEC 13).
+    Restart,
+}
+
+/// What arriving by one outcome brings.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Arrival {
+    /// The reward (when drawn, the reward of a success; a failure gives 0).
+    pub reward: f64,
+    /// How the reward is had.
+    pub chance: Chance,
+    /// Whether and how the arrival ends the episode.
+    pub end: End,
+}
+
+impl Arrival {
+    /// No reward, the episode goes on.
+    pub const NOTHING: Arrival = Arrival {
+        reward: 0.0,
+        chance: Chance::Always,
+        end: End::Continue,
+    };
+
+    /// Whether the arrival is terminal: no future term for MF, and MB remembers it (SPEC 10).
+    #[inline(always)]
+    pub fn terminal(self) -> bool {
+        self.end != End::Continue
+    }
+}
+
 /// A compiled, validated, read-only tabular environment.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Spec {
@@ -55,10 +113,12 @@ pub struct Spec {
     pub outcome_cum: Vec<f64>,
     /// States a run starts in and resets to (drawn uniformly when there are several).
     pub initial_states: Vec<StateId>,
-    /// The rewarded, terminal state.
-    pub goal: StateId,
-    /// Reward for arriving in the goal.
-    pub goal_reward: f64,
+    /// What arriving by each outcome brings: its reward model and whether it ends the episode.
+    /// The step reads only this, never [`goal`](Spec::goal).
+    pub arrival: Vec<Arrival>,
+    /// The goal of a task with one rewarded, terminal state (tidy, `grid:`, `json:`), from which
+    /// [`arrival`](Spec::arrival) was built; `None` for a task whose outcomes say it themselves.
+    pub goal: Option<Goal>,
     /// A readable name per state id.
     pub state_names: Vec<String>,
     /// Human-interaction tables; `None` where the task does not define them (`json:` worlds).
@@ -111,26 +171,38 @@ impl Spec {
         last
     }
 
-    /// Reward of a transition arriving in `next` (SPEC 2: only the goal is rewarded).
-    #[inline(always)]
-    pub fn reward(&self, next: StateId) -> f64 {
-        if next == self.goal {
-            self.goal_reward
-        } else {
-            0.0
-        }
+    /// The goal's state, for a goal task.
+    pub fn goal_state(&self) -> Option<StateId> {
+        self.goal.map(|g| g.state)
     }
 
-    /// Builds a spec from per-pair outcome lists `(next_state, weight)`, filling the CSR arrays and
-    /// cumulative probabilities. Pairs with no outcome become self-loops (SPEC 2.3).
+    /// The largest reward magnitude any arrival can bring (what value bounds are computed from).
+    pub fn max_abs_reward(&self) -> f64 {
+        self.arrival
+            .iter()
+            .map(|a| a.reward.abs())
+            .fold(0.0, f64::max)
+    }
+
+    /// This world with its goal moved to `goal` (SPEC 10): every arrival in `goal.state` is
+    /// rewarded with `goal.reward` and followed by the reset step, every other one is nothing.
+    pub fn with_goal(mut self, goal: Goal) -> Spec {
+        self.arrival = goal_arrivals(&self.outcome_state, goal);
+        self.goal = Some(goal);
+        self
+    }
+
+    /// Builds a spec of a goal task from per-pair outcome lists `(next_state, weight)`, filling
+    /// the CSR arrays and cumulative probabilities. Pairs with no outcome become self-loops
+    /// (SPEC 2.3). A task whose outcomes are not goal arrivals sets [`arrival`](Spec::arrival)
+    /// (and clears [`goal`](Spec::goal)) afterwards.
     pub fn from_outcomes(
         name: String,
         n_states: usize,
         n_actions: usize,
         mut outcomes: Vec<Vec<(StateId, f64)>>,
         initial_states: Vec<StateId>,
-        goal: StateId,
-        goal_reward: f64,
+        goal: Goal,
         state_names: Vec<String>,
         human: Option<HumanTables>,
     ) -> Spec {
@@ -164,6 +236,7 @@ impl Spec {
             }
             outcome_start.push(outcome_state.len() as u32);
         }
+        let arrival = goal_arrivals(&outcome_state, goal);
         Spec {
             name,
             n_states,
@@ -173,12 +246,31 @@ impl Spec {
             outcome_weight,
             outcome_cum,
             initial_states,
-            goal,
-            goal_reward,
+            arrival,
+            goal: Some(goal),
             state_names,
             human,
         }
     }
+}
+
+/// The arrivals of a goal task: the goal's reward and the reset step for every outcome arriving
+/// in it, nothing for the others.
+fn goal_arrivals(outcome_state: &[StateId], goal: Goal) -> Vec<Arrival> {
+    outcome_state
+        .iter()
+        .map(|&next| {
+            if next == goal.state {
+                Arrival {
+                    reward: goal.reward,
+                    chance: Chance::Always,
+                    end: End::Reset,
+                }
+            } else {
+                Arrival::NOTHING
+            }
+        })
+        .collect()
 }
 
 /// Where a `json:` environment's three files are.
