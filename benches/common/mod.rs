@@ -12,7 +12,8 @@ use std::time::Duration;
 use criterion::Criterion;
 use mbmf::batch::{Batch, RunConfig};
 use mbmf::env::Spec;
-use mbmf::params::{Controller, Params, default_steps};
+use mbmf::env::registry::default_steps;
+use mbmf::params::{Controller, Params};
 
 /// Master seed of every benchmark input.
 pub const SEED: u64 = 20_200_831;

@@ -252,7 +252,7 @@ impl Batch {
         run_schedule: &[usize],
     ) -> Result<Batch, ConfigError> {
         for config in &configs {
-            config.params.validate_for(&spec)?;
+            crate::env::registry::check_params(&spec, &config.params)?;
         }
         assert!(run_schedule.is_empty() || run_schedule.len() == configs.len());
         // One plan per distinct (schedule, what compiling depends on in the parameters).

@@ -14,7 +14,8 @@ use crate::env::Spec;
 pub enum EnvCommand {
     /// Print the state and action counts, the goal and a few state names.
     Info {
-        /// tidy1, tidy2 or json:PATH.
+        /// The task (the list is the task registry's).
+        #[arg(help = crate::env::registry::short_help(), long_help = crate::env::registry::help())]
         task: String,
         /// The json: task's files, if not beside the model.
         #[command(flatten)]
@@ -24,7 +25,8 @@ pub enum EnvCommand {
     ///
     /// Example: mbmf env export tidy1 --json out/tidy1
     Export {
-        /// tidy1, tidy2 or json:PATH.
+        /// The task (the list is the task registry's).
+        #[arg(help = crate::env::registry::short_help(), long_help = crate::env::registry::help())]
         task: String,
         /// Folder to write TASK.json, keyStates.txt and spaces.txt into.
         #[arg(long)]

@@ -11,8 +11,9 @@ use super::args::{ParamArgs, batch_size, explain, load_task, runs_count, seed};
 use super::{Failure, progress, runtime, signal, usage};
 use crate::batch::{Batch, RunConfig};
 use crate::env::Spec;
+use crate::env::registry;
 use crate::output;
-use crate::params::{Controller, Params, Profile, default_steps};
+use crate::params::{Controller, Params, Profile};
 use crate::pipeline;
 use crate::schedule::{self, Schedule};
 use crate::sizing;
@@ -20,8 +21,8 @@ use crate::sizing;
 /// `mbmf run`.
 #[derive(Debug, Clone, Args)]
 pub struct RunArgs {
-    /// tidy1, tidy2 or json:PATH (the authors' format, keyStates.txt and spaces.txt beside it).
-    #[arg(long, default_value = "tidy1")]
+    /// The task (the list is the task registry's).
+    #[arg(long, default_value = "tidy1", help = registry::short_help(), long_help = registry::help())]
     pub task: String,
     /// keyStates.txt of a json: task, if not beside the model file.
     #[arg(long)]
@@ -99,7 +100,8 @@ fn controller_params(args: &RunArgs) -> Result<Vec<Params>> {
             human: profile.human(controller).unwrap_or_default(),
             profile,
             reward_source: profile.reward_source().unwrap_or_default(),
-            steps: default_steps(&args.task),
+            steps: registry::default_steps(&args.task),
+            babbling: registry::default_babbling(&args.task),
             ..Params::default()
         };
         args.params.apply(&mut params);
@@ -177,7 +179,7 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
         .map_err(|e| usage(anyhow!("--change: {e}")))?;
     // Runs of one controller share their parameters: check each controller's.
     for p in &params {
-        p.validate_for(&spec).map_err(|e| usage(explain(e)))?;
+        registry::check_params(&spec, p).map_err(|e| usage(explain(e)))?;
         schedule::compile(&spec, &schedule, p).map_err(|e| usage(anyhow!("--change: {e}")))?;
     }
     for warning in warnings(args, &schedule, &params, &spec) {

@@ -12,7 +12,30 @@
 //!   corner when N is a rectangle; arriving there gives reward 1 (then the reset step, SPEC 2.1);
 //! - state names are `"x,y"`; the human does not interact (no relevant actions are defined).
 
-use super::{Goal, Spec, StateId};
+use super::registry::{Task, unconfigured};
+use super::{EnvError, Goal, Spec, StateId};
+
+/// The grid worlds in the task registry.
+pub const GRID: Task = Task {
+    name: "grid:N",
+    help: "a grid world of N cells (2 to 1000000), slippery moves, goal in the far corner",
+    build: |task| {
+        let n = task.strip_prefix("grid:").unwrap_or(task);
+        parse(n).map_err(|error| EnvError::Grid {
+            task: task.to_string(),
+            error,
+        })
+    },
+    default_steps: 10_000,
+    default_babbling: 1_000,
+    interactions: &[],
+    human_reward: true,
+    events: &["world", "goal", "delete"],
+    refusals: &[],
+    params: &[],
+    configure: unconfigured,
+    metrics: &[],
+};
 
 /// Actions of every grid world.
 pub const N_ACTIONS: usize = 5;

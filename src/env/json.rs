@@ -13,7 +13,28 @@ use std::path::{Path, PathBuf};
 
 use serde_json::{Map, Value};
 
+use super::registry::{Task, unconfigured};
 use super::{Goal, JsonPaths, Spec, StateId};
+
+/// The authors' file worlds in the task registry.
+pub const JSON: Task = Task {
+    name: "json:PATH",
+    help: "a world in the authors' transition-model format (keyStates.txt and spaces.txt \
+           beside it)",
+    build: |task| {
+        let path = task.strip_prefix("json:").unwrap_or(task);
+        Ok(load(&JsonPaths::beside(path), task)?)
+    },
+    default_steps: 10_000,
+    default_babbling: 1_000,
+    interactions: &[],
+    human_reward: true,
+    events: &["world", "goal", "delete"],
+    refusals: &[],
+    params: &[],
+    configure: unconfigured,
+    metrics: &[],
+};
 
 /// Most distinct next states one state-action pair may have (outcome indices fit in a `u16`).
 pub const MAX_OUTCOMES_PER_PAIR: usize = u16::MAX as usize;

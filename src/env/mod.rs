@@ -6,9 +6,25 @@
 //! The MB expert's learned model reuses this indexing (it can only ever observe outcomes the
 //! environment can produce), which keeps its memory proportional to the real branching factor.
 
-pub mod grid;
-pub mod json;
-pub mod tidy;
+pub mod registry;
+
+/// Declares the task modules and lists their [`registry::Task`]s, in the order help texts
+/// show them: `module => CONST, ...;`.
+macro_rules! tasks {
+    ($($module:ident => $($task:ident),+;)*) => {
+        $(pub mod $module;)*
+
+        /// Every registered task (see [`registry`]).
+        pub const TASKS: &[registry::Task] = &[$($($module::$task),+),*];
+    };
+}
+
+// The task registry: a new task is its file and one line here.
+tasks! {
+    tidy => TIDY1, TIDY2;
+    grid => GRID;
+    json => JSON;
+}
 
 use std::path::PathBuf;
 
@@ -97,7 +113,7 @@ impl Arrival {
 /// A compiled, validated, read-only tabular environment.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Spec {
-    /// The name the user gave (`tidy1`, `tidy2`, `json:PATH`, ...).
+    /// The name the user gave (a task of the [`registry`], e.g. `tidy1` or `json:PATH`).
     pub name: String,
     /// Number of states |S|.
     pub n_states: usize,
@@ -302,9 +318,9 @@ impl JsonPaths {
 pub enum EnvError {
     /// The task name is none of the known ones.
     #[error(
-        "unknown task '{0}': {hint}expected tidy1, tidy2 or json:PATH (the authors' \
-         transition-model file, with keyStates.txt and spaces.txt beside it)",
-        hint = task_hint(.0)
+        "unknown task '{0}': {hint}expected {names}",
+        hint = task_hint(.0),
+        names = registry::names()
     )]
     UnknownTask(String),
     /// A `grid:N` task whose N is not an accepted number of states.
@@ -320,9 +336,6 @@ pub enum EnvError {
     File(#[from] crate::env::json::EnvFileError),
 }
 
-/// The built-in task names.
-const TASKS: [&str; 2] = ["tidy1", "tidy2"];
-
 /// "did you mean ...? " for a task name that is not known, or nothing when no guess is close.
 fn task_hint(task: &str) -> String {
     let lower = task.to_lowercase();
@@ -336,28 +349,16 @@ fn task_hint(task: &str) -> String {
         Some(rest) if !rest.is_empty() => Some(format!("json:{rest}")),
         Some(_) => None,
         None if task.contains('/') || lower.ends_with(".json") => Some(format!("json:{task}")),
-        None => crate::suggest::closest(&lower, TASKS).map(str::to_string),
+        None => crate::suggest::closest(&lower, registry::plain_names()).map(str::to_string),
     };
     guess.map_or_else(String::new, |g| format!("did you mean '{g}'? "))
 }
 
-/// Builds the environment named by `task`: `tidy1`, `tidy2` or `json:PATH`.
+/// Builds the environment named by `task`, a task of the [`registry`].
 pub fn load(task: &str) -> Result<Spec, EnvError> {
-    match task {
-        "tidy1" => Ok(tidy::build(tidy::Variant::Task1)),
-        "tidy2" => Ok(tidy::build(tidy::Variant::Task2)),
-        _ => {
-            if let Some(n) = task.strip_prefix("grid:") {
-                grid::parse(n).map_err(|error| EnvError::Grid {
-                    task: task.to_string(),
-                    error,
-                })
-            } else if let Some(path) = task.strip_prefix("json:") {
-                Ok(json::load(&JsonPaths::beside(path), task)?)
-            } else {
-                Err(EnvError::UnknownTask(task.to_string()))
-            }
-        }
+    match registry::find(task) {
+        Some(t) => (t.build)(task),
+        None => Err(EnvError::UnknownTask(task.to_string())),
     }
 }
 
@@ -388,6 +389,6 @@ mod error_tests {
     fn a_name_far_from_every_task_gets_no_guess() {
         let message = EnvError::UnknownTask("gridworld".into()).to_string();
         assert!(!message.contains("did you mean"), "{message}");
-        assert!(message.contains("expected tidy1, tidy2 or json:PATH"));
+        assert!(message.contains(&format!("expected {}", registry::names())));
     }
 }

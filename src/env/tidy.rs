@@ -6,7 +6,9 @@
 
 use std::collections::{HashMap, VecDeque};
 
+use super::registry::{Task, unconfigured};
 use super::{Goal, HumanTables, NO_NUISANCE, NO_TAKEOVER, Spec, StateId};
+use crate::params::Interaction;
 
 /// Number of cubes (red, green, blue).
 pub const N_CUBES: usize = 3;
@@ -97,6 +99,59 @@ impl crate::params::ParamValue for Boxes {
         }
     }
 }
+
+/// Every interaction type: the tidy tasks define what each needs (SPEC 5, 11.2).
+const INTERACTIONS: &[Interaction] = &[
+    Interaction::Congratulation,
+    Interaction::Takeover,
+    Interaction::Punishment,
+    Interaction::Nuisance,
+];
+
+/// Task 1 in the task registry.
+pub const TIDY1: Task = Task {
+    name: "tidy1",
+    help: "the paper's task 1: put each of three cubes in its box (112 states, 7 actions)",
+    build: |_| Ok(build(Variant::Task1)),
+    default_steps: 10_000,
+    default_babbling: 1_000,
+    interactions: INTERACTIONS,
+    human_reward: true,
+    events: &["boxes"],
+    refusals: &[(
+        "goal",
+        "tidy1's objective is its box assignment: use boxes=PERM (e.g. 5000:boxes=brg)",
+    )],
+    params: &["boxes"],
+    configure: |p| Ok((p.boxes != Boxes::RGB).then(|| build_with(Variant::Task1, p.boxes))),
+    metrics: &[],
+};
+
+/// Task 2 in the task registry.
+pub const TIDY2: Task = Task {
+    name: "tidy2",
+    help: "the paper's task 2: light three LEDs in order (142 states, 7 actions)",
+    build: |_| Ok(build(Variant::Task2)),
+    default_steps: 20_000,
+    default_babbling: 1_000,
+    interactions: INTERACTIONS,
+    human_reward: true,
+    events: &[],
+    refusals: &[
+        (
+            "goal",
+            "tidy2 keeps its fixed objective (its reachable states would change)",
+        ),
+        (
+            "boxes",
+            "tidy2 keeps its fixed box assignment and LED order (its reachable states would \
+             change)",
+        ),
+    ],
+    params: &[],
+    configure: unconfigured,
+    metrics: &[],
+};
 
 /// Which tidy task.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
