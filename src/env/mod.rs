@@ -24,6 +24,7 @@ tasks! {
     tidy => TIDY1, TIDY2;
     grid => GRID;
     json => JSON;
+    chain => CHAIN;
 }
 
 use std::path::PathBuf;
