@@ -1,0 +1,109 @@
+//! Tasks of the task registry run end to end: `chain`, the smallest registered task, through
+//! `mbmf run` with the Parquet read back, its registry defaults, and its refusals.
+
+mod common;
+
+use common::{Row, rows, run, run_quiet};
+
+/// The runs table of `mbmf run ARGS` written to a temporary folder.
+fn runs_of(args: &[&str]) -> Vec<Row> {
+    let dir = tempfile::tempdir().unwrap();
+    run_quiet(dir.path(), args);
+    let runs = rows(dir.path(), &[]);
+    runs.into_iter()
+        .filter(|r| !r.contains_key("step"))
+        .collect()
+}
+
+fn number(row: &Row, column: &str) -> f64 {
+    row[column]
+        .parse()
+        .unwrap_or_else(|_| panic!("{column} = {} is not a number", row[column]))
+}
+
+#[test]
+fn chain_runs_end_to_end_and_its_reward_is_bounded_by_the_reset_steps() {
+    let runs = runs_of(&[
+        "--task",
+        "chain",
+        "--controller",
+        "mf,mb,ec",
+        "--runs",
+        "3",
+        "--steps",
+        "400",
+        "--babbling",
+        "50",
+    ]);
+    assert_eq!(runs.len(), 9);
+    for row in &runs {
+        assert_eq!(row["task"], "chain");
+        assert_eq!(row["steps"], "400");
+        let reward = number(row, "total_reward");
+        // Every reward is an arrival in the goal and the next step is the reset step, so at
+        // most one step in two is rewarded: 200 in 400 steps (reward 1 each).
+        assert!(reward <= 200.0, "{row:?}");
+        assert_eq!(reward, reward.round(), "rewards are whole: {row:?}");
+        // One action of two reaches the goal: any learner gets most of the possible reward.
+        assert!(reward >= 150.0, "{row:?}");
+        assert!(number(row, "first_reward_step") >= 1.0, "{row:?}");
+    }
+}
+
+#[test]
+fn chain_takes_its_steps_and_babbling_from_the_registry() {
+    let runs = runs_of(&["--task", "chain", "--controller", "mf", "--runs", "1"]);
+    assert_eq!(runs.len(), 1);
+    assert_eq!(runs[0]["steps"], "1000");
+    assert_eq!(runs[0]["babbling"], "100");
+    // tidy1 keeps the paper's.
+    let runs = runs_of(&[
+        "--task",
+        "tidy1",
+        "--controller",
+        "mf",
+        "--runs",
+        "1",
+        "--steps",
+        "10",
+    ]);
+    assert_eq!(runs[0]["babbling"], "1000");
+}
+
+#[test]
+fn chain_refuses_interactions_and_tidy_parameters() {
+    let out = run(&[
+        "run",
+        "--task",
+        "chain",
+        "--interaction",
+        "takeover",
+        "--budget",
+        "5",
+        "--quiet",
+        "--out",
+        "/nonexistent/never-written",
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("interaction 'takeover' is not defined for task 'chain'"),
+        "{stderr}"
+    );
+    let out = run(&[
+        "run",
+        "--task",
+        "chain",
+        "--boxes",
+        "brg",
+        "--quiet",
+        "--out",
+        "/nonexistent/never-written",
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("boxes is a parameter of tidy1, not of task 'chain'"),
+        "{stderr}"
+    );
+}
