@@ -107,3 +107,52 @@ fn chain_refuses_interactions_and_tidy_parameters() {
         "{stderr}"
     );
 }
+
+#[test]
+fn a_drawn_reward_is_given_at_about_its_probability_and_a_fixed_one_always() {
+    use std::sync::Arc;
+
+    use mbmf::batch::{Batch, RunConfig};
+    use mbmf::env::{Chance, chain};
+    use mbmf::params::{Controller, Params};
+
+    // The chain with its goal rewarded with probability 0.3: `mf` runs reach the goal nearly
+    // every other step, so the reward per arrival estimates p.
+    let spec = chain::build();
+    let mut arrivals = spec.arrival.clone();
+    for arrival in arrivals.iter_mut().filter(|a| a.terminal()) {
+        arrival.chance = Chance::Drawn(0.3);
+    }
+    let spec = spec.with_arrivals(arrivals);
+    let params = Params {
+        controller: Controller::Mf,
+        steps: 2_000,
+        babbling: 0,
+        ..Params::default()
+    };
+    let configs = (0..20)
+        .map(|r| RunConfig {
+            params,
+            seed: 7,
+            run_index: r,
+        })
+        .collect();
+    let mut batch = Batch::new(Arc::new(spec), configs).unwrap();
+    assert_eq!(batch.spec().goal, None);
+    batch.run_to_end();
+    // Every step but the reset steps decides, and every reset step follows an arrival in the
+    // goal (the last arrival's may fall beyond the end): arrivals = steps - decisions, + 0 or 1.
+    let (mut rewarded, mut arrivals) = (0.0, 0u64);
+    for stats in batch.stats() {
+        rewarded += stats.total_reward;
+        arrivals += 2_000 - stats.decisions;
+    }
+    // About 18,000 arrivals (action 1 is preferred once learnt): the rewarded share's sd is
+    // sqrt(0.3 x 0.7 / 18,000) = 0.0034; 0.02 is about 6 sd, and the +1 per run is 0.001.
+    assert!(arrivals > 10_000, "{arrivals}");
+    let share = rewarded / arrivals as f64;
+    assert!(
+        (share - 0.3).abs() < 0.02,
+        "{rewarded} rewards in {arrivals} arrivals"
+    );
+}

@@ -2,9 +2,9 @@
 //!
 //! Random draws, in this order and only when needed: the human's attentiveness at a takeover
 //! opportunity; the MC's draw (`rnd`, softmax selection, or an argmax tie); the action; the
-//! environment's outcome (pairs with several outcomes only); the human's attentiveness at a
-//! nuisance opportunity (SPEC 11.2); at a human-reward opportunity (11.1); at a congratulation
-//! or punishment opportunity. A reset step draws an initial state only when the environment has
+//! environment's outcome (pairs with several outcomes only); the reward (drawn rewards only);
+//! the human's attentiveness at a nuisance opportunity (SPEC 11.2); at a human-reward
+//! opportunity (11.1); at a congratulation or punishment opportunity. A reset step draws an initial state only when the environment has
 //! several.
 //!
 //! The events of the run's schedule due at an experiment step apply first, before anything of
@@ -13,7 +13,7 @@
 use std::time::Instant;
 
 use super::{Checkpoint, RunView, Settled, initial_state, uniform};
-use crate::env::{Arrival, End, Spec};
+use crate::env::{Chance, End, Spec};
 use crate::expert::{draw, ema, ema_into, entropy_bits, max_of, mf, softmax_biased};
 use crate::human::{self, Encounter};
 use crate::meta;
@@ -224,18 +224,30 @@ fn act<const KIND: u8, const HUMAN: bool, const NA: usize, const BABBLING: bool>
         spec.pick_outcome(sa, uniform(run.rng))
     };
     let mut next = spec.outcome_state[o] as usize;
-    let mut arrival = spec.arrival[o];
+    // Most outcomes bring nothing: one byte says so, and only the others are read.
+    let (mut terminal, mut reset, mut arrival_reward) = (false, false, 0.0);
+    if spec.eventful[o] {
+        let arrival = spec.arrival[o];
+        terminal = arrival.terminal();
+        reset = arrival.end == End::Reset;
+        arrival_reward = arrival.reward;
+        // A drawn reward: its draw comes right after the outcome's (a fixed one draws nothing).
+        if let Chance::Drawn(p) = arrival.chance
+            && uniform(run.rng) >= p
+        {
+            arrival_reward = 0.0;
+        }
+    }
     // 11.2: a nuisance human undoes a relevant action before anything learns from it; the
     // cube back on the table is never a goal, so the arrival brings nothing.
     if human_active && let Some(undone) = encounter(spec, human, run, t_exp).nuisance(sa) {
         next = undone;
-        arrival = Arrival::NOTHING;
+        (terminal, reset) = (false, false);
     }
-    let terminal = arrival.terminal();
     let mut reward = if babbling || !terminal {
         0.0
     } else {
-        arrival.reward
+        arrival_reward
     };
     // 11.1: where only the human brings reward, an arrival in the goal is an opportunity.
     if HUMAN && terminal && !babbling && run.cursor.reward_source == RewardSource::Human {
@@ -258,7 +270,7 @@ fn act<const KIND: u8, const HUMAN: bool, const NA: usize, const BABBLING: bool>
 
     // 8. Learning, by every expert the controller runs. The arrival is terminal when the world
     // at this time says so (SPEC 10): both experts learn that from the transition itself.
-    run.cursor.pending_reset = arrival.end == End::Reset;
+    run.cursor.pending_reset = reset;
     if controller.runs_mf() {
         // An `mf` run without a human keeps each Q row's maximum; other runs read the row.
         let future = match (KIND == MF && !HUMAN, terminal) {

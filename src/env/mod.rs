@@ -68,9 +68,10 @@ pub struct Goal {
 pub enum Chance {
     /// Always: no random draw.
     Always,
-    /// With the probability held in slot `k` of the run's task state: one uniform draw, the
-    /// reward given when it is below that probability (SPEC 13).
-    Drawn(u8),
+    /// With probability `p`: one uniform draw at every arrival (babbling included, where the
+    /// reward is then withheld), the reward given when the draw is below `p` (SPEC 13's
+    /// Bernoulli rewards; their drift will read `p` from per-run task state instead).
+    Drawn(f64),
 }
 
 /// What an arrival does to the episode.
@@ -133,6 +134,10 @@ pub struct Spec {
     /// What arriving by each outcome brings: its reward model and whether it ends the episode.
     /// The step reads only this, never [`goal`](Spec::goal).
     pub arrival: Vec<Arrival>,
+    /// Per outcome: its arrival is something other than [`Arrival::NOTHING`]. The step reads
+    /// this byte and the arrival only where it is set (most outcomes bring nothing); set with
+    /// the arrivals by [`with_arrivals`](Spec::with_arrivals).
+    pub eventful: Vec<bool>,
     /// The goal of a task with one rewarded, terminal state (tidy, `grid:`, `json:`), from which
     /// [`arrival`](Spec::arrival) was built; `None` for a task whose outcomes say it themselves.
     pub goal: Option<Goal>,
@@ -203,9 +208,24 @@ impl Spec {
 
     /// This world with its goal moved to `goal` (SPEC 10): every arrival in `goal.state` is
     /// rewarded with `goal.reward` and followed by the reset step, every other one is nothing.
-    pub fn with_goal(mut self, goal: Goal) -> Spec {
-        self.arrival = goal_arrivals(&self.outcome_state, goal);
-        self.goal = Some(goal);
+    pub fn with_goal(self, goal: Goal) -> Spec {
+        let arrivals = goal_arrivals(&self.outcome_state, goal);
+        let mut spec = self.with_arrivals(arrivals);
+        spec.goal = Some(goal);
+        spec
+    }
+
+    /// This world with the arrivals `arrivals` (one per outcome) and no single goal: what a task
+    /// whose outcomes carry their own rewards builds.
+    pub fn with_arrivals(mut self, arrivals: Vec<Arrival>) -> Spec {
+        assert_eq!(
+            arrivals.len(),
+            self.outcome_state.len(),
+            "one arrival per outcome"
+        );
+        self.eventful = arrivals.iter().map(|&a| a != Arrival::NOTHING).collect();
+        self.arrival = arrivals;
+        self.goal = None;
         self
     }
 
@@ -254,6 +274,7 @@ impl Spec {
             outcome_start.push(outcome_state.len() as u32);
         }
         let arrival = goal_arrivals(&outcome_state, goal);
+        let eventful = arrival.iter().map(|&a| a != Arrival::NOTHING).collect();
         Spec {
             name,
             n_states,
@@ -264,6 +285,7 @@ impl Spec {
             outcome_cum,
             initial_states,
             arrival,
+            eventful,
             goal: Some(goal),
             state_names,
             human,
