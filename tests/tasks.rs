@@ -72,40 +72,31 @@ fn chain_takes_its_steps_and_babbling_from_the_registry() {
 
 #[test]
 fn chain_refuses_interactions_and_tidy_parameters() {
-    let out = run(&[
-        "run",
-        "--task",
-        "chain",
-        "--interaction",
-        "takeover",
-        "--budget",
-        "5",
-        "--quiet",
-        "--out",
-        "/nonexistent/never-written",
-    ]);
-    assert_eq!(out.status.code(), Some(2));
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(
-        stderr.contains("interaction 'takeover' is not defined for task 'chain'"),
-        "{stderr}"
-    );
-    let out = run(&[
-        "run",
-        "--task",
-        "chain",
-        "--boxes",
-        "brg",
-        "--quiet",
-        "--out",
-        "/nonexistent/never-written",
-    ]);
-    assert_eq!(out.status.code(), Some(2));
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(
-        stderr.contains("boxes is a parameter of tidy1, not of task 'chain'"),
-        "{stderr}"
-    );
+    for (flags, message) in [
+        (
+            &["--interaction", "takeover", "--budget", "5"][..],
+            "interaction 'takeover' is not defined for task 'chain'",
+        ),
+        (
+            &["--boxes", "brg"][..],
+            "boxes is a parameter of tidy1, not of task 'chain'",
+        ),
+    ] {
+        let mut args = vec![
+            "run",
+            "--task",
+            "chain",
+            "--quiet",
+            "--out",
+            "/nonexistent/x",
+        ];
+        args.extend_from_slice(flags);
+        let out = run(&args);
+        // A usage error: exit code 2, and the message names the task.
+        assert_eq!(out.status.code(), Some(2), "{args:?}");
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(stderr.contains(message), "{stderr}");
+    }
 }
 
 #[test]

@@ -12,7 +12,7 @@
 //!   corner when N is a rectangle; arriving there gives reward 1 (then the reset step, SPEC 2.1);
 //! - state names are `"x,y"`; the human does not interact (no relevant actions are defined).
 
-use super::registry::{Task, unconfigured};
+use super::registry::{DEFAULTS, Task};
 use super::{EnvError, Goal, Spec, StateId};
 
 /// The grid worlds in the task registry.
@@ -26,15 +26,8 @@ pub const GRID: Task = Task {
             error,
         })
     },
-    default_steps: 10_000,
-    default_babbling: 1_000,
-    interactions: &[],
-    human_reward: true,
     events: &["world", "goal", "delete"],
-    refusals: &[],
-    params: &[],
-    configure: unconfigured,
-    metrics: &[],
+    ..DEFAULTS
 };
 
 /// Actions of every grid world.

@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 
 use serde_json::{Map, Value};
 
-use super::registry::{Task, unconfigured};
+use super::registry::{DEFAULTS, Task};
 use super::{Goal, JsonPaths, Spec, StateId};
 
 /// The authors' file worlds in the task registry.
@@ -25,15 +25,8 @@ pub const JSON: Task = Task {
         let path = task.strip_prefix("json:").unwrap_or(task);
         Ok(load(&JsonPaths::beside(path), task)?)
     },
-    default_steps: 10_000,
-    default_babbling: 1_000,
-    interactions: &[],
-    human_reward: true,
     events: &["world", "goal", "delete"],
-    refusals: &[],
-    params: &[],
-    configure: unconfigured,
-    metrics: &[],
+    ..DEFAULTS
 };
 
 /// Most distinct next states one state-action pair may have (outcome indices fit in a `u16`).

@@ -42,6 +42,24 @@ pub struct Task {
     pub metrics: &'static [&'static str],
 }
 
+/// What a task is unless it says otherwise: the paper's 10,000 steps after 1,000 of babbling,
+/// no interaction (the human may still bring the reward), no schedule event on its world, no
+/// task parameter and no extra metric. An entry writes `..DEFAULTS` after what differs.
+pub const DEFAULTS: Task = Task {
+    name: "",
+    help: "",
+    build: |task| Err(EnvError::UnknownTask(task.to_string())),
+    default_steps: 10_000,
+    default_babbling: 1_000,
+    interactions: &[],
+    human_reward: true,
+    events: &[],
+    refusals: &[],
+    params: &[],
+    configure: unconfigured,
+    metrics: &[],
+};
+
 /// [`Task::configure`] of a task whose parameters change nothing.
 pub fn unconfigured(_: &Params) -> Result<Option<Spec>, String> {
     Ok(None)

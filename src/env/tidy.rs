@@ -6,7 +6,7 @@
 
 use std::collections::{HashMap, VecDeque};
 
-use super::registry::{Task, unconfigured};
+use super::registry::{DEFAULTS, Task};
 use super::{Goal, HumanTables, NO_NUISANCE, NO_TAKEOVER, Spec, StateId};
 use crate::params::Interaction;
 
@@ -113,10 +113,7 @@ pub const TIDY1: Task = Task {
     name: "tidy1",
     help: "the paper's task 1: put each of three cubes in its box (112 states, 7 actions)",
     build: |_| Ok(build(Variant::Task1)),
-    default_steps: 10_000,
-    default_babbling: 1_000,
     interactions: INTERACTIONS,
-    human_reward: true,
     events: &["boxes"],
     refusals: &[(
         "goal",
@@ -124,7 +121,7 @@ pub const TIDY1: Task = Task {
     )],
     params: &["boxes"],
     configure: |p| Ok((p.boxes != Boxes::RGB).then(|| build_with(Variant::Task1, p.boxes))),
-    metrics: &[],
+    ..DEFAULTS
 };
 
 /// Task 2 in the task registry.
@@ -133,10 +130,7 @@ pub const TIDY2: Task = Task {
     help: "the paper's task 2: light three LEDs in order (142 states, 7 actions)",
     build: |_| Ok(build(Variant::Task2)),
     default_steps: 20_000,
-    default_babbling: 1_000,
     interactions: INTERACTIONS,
-    human_reward: true,
-    events: &[],
     refusals: &[
         (
             "goal",
@@ -148,9 +142,7 @@ pub const TIDY2: Task = Task {
              change)",
         ),
     ],
-    params: &[],
-    configure: unconfigured,
-    metrics: &[],
+    ..DEFAULTS
 };
 
 /// Which tidy task.
