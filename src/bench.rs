@@ -134,7 +134,8 @@ pub struct Memory {
 pub fn memory_per_instance(spec: &Arc<Spec>, runs: usize) -> Result<Memory, BenchError> {
     let params = Params {
         controller: Controller::Ec,
-        steps: crate::params::default_steps(&spec.name),
+        steps: crate::env::registry::default_steps(&spec.name),
+        babbling: crate::env::registry::default_babbling(&spec.name),
         ..Params::default()
     };
     let before = resident_bytes();

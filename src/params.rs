@@ -7,7 +7,6 @@ pub mod registry;
 use thiserror::Error;
 
 pub use crate::arbiter::Controller;
-use crate::env::tidy::Boxes;
 pub use registry::{Kind, Param, ParamValue, Value, param};
 
 /// A parameter value outside what the model accepts.
@@ -43,14 +42,16 @@ pub enum ConfigError {
     },
     /// Human interactions on a task that does not define them (SPEC 5).
     #[error(
-        "interaction '{interaction}' is not defined for task '{task}': only tidy1 and tidy2 say which \
-         actions are relevant or errors and where a held cube belongs; use --interaction none (or budget 0)"
+        "interaction '{interaction}' is not defined for task '{task}': {accepted}; use \
+         --interaction none (or budget 0)"
     )]
     InteractionUnsupported {
         /// The task.
         task: String,
         /// The interaction type asked for.
         interaction: String,
+        /// What the task accepts (from the task registry).
+        accepted: String,
     },
     /// A schedule of changes that does not fit the task or the run (SPEC 10): the schedule's
     /// own message, as text, so that parameters do not depend on the schedule that uses them.
@@ -292,8 +293,9 @@ pub fn paper_budget(controller: Controller, interaction: Interaction) -> u32 {
 
 // The parameter registry (see `registry`): adding a parameter is adding a row here. The order
 // is the order of the output columns, of `mbmf run --help` and of sweep-key listings.
+// Task parameters are rows too, declared beside their tasks and appended by `task_params!`.
 #[rustfmt::skip]
-registry::registry! {
+crate::env::registry::task_params!(registry::registry {
     special controller: Controller = Controller::Ec, "meta-controller, the rule arbitrating between the experts (SPEC 4, 12)";
     flag selection: Selection = Selection::Softmax, "how the MC picks an expert: softmax or argmax";
     flag cost_model: CostModel = CostModel::Ops, "inference cost model: ops or wallclock",
@@ -337,7 +339,7 @@ registry::registry! {
     flag normalise_entropy ["normalize_entropy"]: bool = true,
         "entropies divided by log2(actions) in the MC values", help " (authors' code)";
     flag steps: u32 = 10_000, "experiment steps after babbling" ("steps"),
-        help " (20000 for tidy2). 0 runs the babbling only: one row per run with zero reward \
+        help " (the task's default: 20000 for tidy2). 0 runs the babbling only: one row per run with zero reward \
               and cost, and no series rows";
     flag babbling: u32 = 1_000, "babbling steps before the experiment" ("steps"),
         help ". Reward is withheld and the human absent";
@@ -347,34 +349,9 @@ registry::registry! {
         "who brings the goal's reward: environment or human (SPEC 11.1)";
     flag congratulation_effect: CongratulationEffect = CongratulationEffect::Bias,
         "how a congratulation acts: bias (Eq. 8) or reward shaping (SPEC 11.3)";
-    flag boxes: Boxes = Boxes::RGB,
-        "tidy1 box assignment at the start: position i gives cube i's box (rgb by default)";
     flag w_mb: f64 = 0.5, "P(MB) of the fixed controller" ("probability"),
         accepts "a weight in [0, 1]" if |x| (0.0..=1.0).contains(&x);
-}
-
-/// tidy1's box assignments as sweep files and flags name them: permutations of `rgb`, position
-/// i the box of cube i.
-const BOX_NAMES: &[&str] = &["rgb", "rbg", "grb", "gbr", "brg", "bgr"];
-
-impl ParamValue for Boxes {
-    const KIND: Kind = Kind::Choice(BOX_NAMES);
-    fn to_value(self) -> Value {
-        let name = self.to_string();
-        Value::Choice(BOX_NAMES.iter().find(|n| **n == name).unwrap_or(&"rgb"))
-    }
-    fn from_value(value: &Value) -> Option<Self> {
-        match value {
-            Value::Choice(name) => Boxes::parse(name).ok(),
-            _ => None,
-        }
-    }
-}
-
-/// The paper's experiment length for a task: 20,000 steps for task 2, 10,000 otherwise (SPEC 7).
-pub fn default_steps(task: &str) -> u32 {
-    if task == "tidy2" { 20_000 } else { 10_000 }
-}
+});
 
 /// Largest magnitude an action value or a run's total reward may reach. Inputs that could push
 /// a value beyond it are refused ([`Params::validate_for_reward`]): below it, the differences and
@@ -420,24 +397,6 @@ fn approx(x: f64) -> String {
 }
 
 impl Params {
-    /// Checks every scalar, and that the parameters make sense for the environment `spec`: values
-    /// stay finite with its reward, and no interactions where the task does not define them
-    /// (SPEC 5).
-    pub fn validate_for(&self, spec: &crate::env::Spec) -> Result<(), ConfigError> {
-        self.validate()?;
-        self.validate_for_reward(spec.goal_reward)?;
-        if self.human.interaction != Interaction::None
-            && self.human.budget > 0
-            && spec.human.is_none()
-        {
-            return Err(ConfigError::InteractionUnsupported {
-                task: spec.name.clone(),
-                interaction: self.human.interaction.name().to_string(),
-            });
-        }
-        Ok(())
-    }
-
     /// Checks that, with an environment whose goal gives `goal_reward`, no value the run computes
     /// can exceed [`VALUE_LIMIT`]: action values stay within max(|q_init|, |r| / (1 - gamma)) for
     /// each discount in use, and the total reward within |r| x steps. Call after [`validate`].

@@ -205,7 +205,7 @@ impl Run {
             p.validate().map_err(RunError::Invalid)?;
         }
         for p in &job.configs {
-            p.validate_for(&job.spec).map_err(RunError::Invalid)?;
+            crate::env::registry::check_params(&job.spec, p).map_err(RunError::Invalid)?;
             schedule::compile(&job.spec, &job.schedule, p).map_err(RunError::Change)?;
         }
         let warnings = warnings(&job);

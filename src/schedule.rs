@@ -12,8 +12,8 @@ use std::sync::Arc;
 
 use thiserror::Error;
 
-use crate::env::tidy::{self, Boxes};
-use crate::env::{self, Spec, StateId};
+use crate::env::tidy::Boxes;
+use crate::env::{self, Goal, Spec, StateId, registry};
 use crate::params::{Interaction, Params, Profile, RewardSource};
 
 /// What changes at one step.
@@ -349,21 +349,9 @@ pub enum HumanChange {
 /// A compiled event: what it does to a run's cursor.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Action {
-    /// The run now lives in world `world` of the plan (a world swap, a deletion or, in `tidy1`,
-    /// a box assignment), with this goal.
-    World {
-        /// Index into [`Plan::worlds`].
-        world: u16,
-        /// The goal from now on.
-        goal: StateId,
-    },
-    /// The goal moves (and its reward changes, if given).
-    Goal {
-        /// The new goal.
-        state: StateId,
-        /// The new reward, or the current one.
-        reward: Option<f64>,
-    },
+    /// The run now lives in this world of the plan (an index into [`Plan::worlds`]): a world
+    /// swap, a deletion, a moved goal or, in `tidy1`, a box assignment.
+    World(u16),
     /// The human changes.
     Human(HumanChange),
 }
@@ -398,42 +386,32 @@ impl Plan {
     }
 }
 
-/// Adds `world` to the plan's worlds: the action that moves a run into it, with `goal`.
-fn enter(worlds: &mut Vec<Arc<Spec>>, world: Arc<Spec>, goal: StateId) -> Action {
+/// Adds `world` to the plan's worlds: the action that moves a run into it.
+fn enter(worlds: &mut Vec<Arc<Spec>>, world: Arc<Spec>) -> Action {
     worlds.push(world);
-    let world = (worlds.len() - 1) as u16;
-    Action::World { world, goal }
+    Action::World((worlds.len() - 1) as u16)
 }
 
 /// Checks `schedule` against the task `spec` (named `task`) for a run with `params`, loading
 /// every world it names, before anything runs (SPEC 10): steps in 1..=steps, worlds with the
 /// same spaces, goals that exist and are not initial states, deletions of pairs the world has,
-/// no objective change on `tidy2`, no box assignment outside `tidy1`, no interaction where the
-/// task defines none.
+/// and only the events, task parameters and interactions the task's registry entry allows.
 pub fn compile(
     spec: &Arc<Spec>,
     schedule: &Schedule,
     params: &Params,
 ) -> Result<Plan, ScheduleError> {
-    let task = spec.name.as_str();
-    let is_tidy1 = task == "tidy1";
-    let is_tidy2 = task == "tidy2";
-    let is_json = !is_tidy1 && !is_tidy2;
     let mut worlds: Vec<Arc<Spec>> = Vec::new();
-    let start = if params.boxes != Boxes::RGB {
-        if !is_tidy1 {
-            return Err(fail(
-                format!("boxes={}", params.boxes),
-                format!("a box assignment is defined for tidy1 only, not for task '{task}'"),
-            ));
-        }
-        Arc::new(tidy::build_with(tidy::Variant::Task1, params.boxes))
-    } else {
-        Arc::clone(spec)
+    let start = match registry::configure(spec, params) {
+        Ok(Some(world)) => Arc::new(world),
+        Ok(None) => Arc::clone(spec),
+        Err((event, reason)) => return Err(fail(event, reason)),
     };
     worlds.push(Arc::clone(&start));
-    let mut goal = start.goal;
-    let has_human = start.human.is_some();
+    // The task decides which events it accepts and why it refuses the others.
+    let refuse = |key: &str, what: &str| -> Option<String> {
+        (!registry::accepts_event(spec, key)).then(|| registry::refusal(spec, key, what))
+    };
     let mut nuisance = params.human.interaction == Interaction::Nuisance;
     let mut actions = Vec::with_capacity(schedule.changes.len());
     for change in &schedule.changes {
@@ -450,11 +428,8 @@ pub fn compile(
         }
         let action = match &change.event {
             Event::World(name) => {
-                if !is_json {
-                    return Err(fail(
-                        &event,
-                        format!("a world swap needs a json: task, not '{task}'"),
-                    ));
+                if let Some(reason) = refuse("world", "a world swap") {
+                    return Err(fail(&event, reason));
                 }
                 let loaded = env::load(name).map_err(|e| fail(&event, e.to_string()))?;
                 let here = &worlds[worlds.len() - 1];
@@ -469,22 +444,15 @@ pub fn compile(
                     ));
                 }
                 // The goal, its reward and the initial states stay as they were (SPEC 10).
-                let mut world = loaded;
-                world.goal = here.goal;
-                world.goal_reward = here.goal_reward;
+                let mut world = match here.goal {
+                    Some(goal) => loaded.with_goal(goal),
+                    None => loaded,
+                };
                 world.initial_states = here.initial_states.clone();
-                enter(&mut worlds, Arc::new(world), goal)
+                enter(&mut worlds, Arc::new(world))
             }
             Event::Goal { state, reward } => {
-                if !is_json {
-                    let reason = if is_tidy2 {
-                        "tidy2 keeps its fixed objective (its reachable states would change)"
-                            .to_string()
-                    } else {
-                        "tidy1's objective is its box assignment: use boxes=PERM (e.g. \
-                         5000:boxes=brg)"
-                            .to_string()
-                    };
+                if let Some(reason) = refuse("goal", "moving the goal") {
                     return Err(fail(&event, reason));
                 }
                 let here = &worlds[worlds.len() - 1];
@@ -512,49 +480,55 @@ pub fn compile(
                         .validate_for_reward(*r)
                         .map_err(|e| fail(&event, e.to_string()))?;
                 }
-                goal = *state;
-                Action::Goal {
+                // The moved goal is another world of the same transitions: the step reads
+                // every arrival's reward from its world.
+                let reward = match (reward, here.goal) {
+                    (Some(r), _) => *r,
+                    (None, Some(g)) => g.reward,
+                    (None, None) => return Err(fail(&event, "the task has no goal to move")),
+                };
+                let world = Spec::clone(here).with_goal(Goal {
                     state: *state,
-                    reward: *reward,
-                }
+                    reward,
+                });
+                enter(&mut worlds, Arc::new(world))
             }
             Event::Boxes(boxes) => {
-                if !is_tidy1 {
-                    let reason = if is_tidy2 {
-                        "tidy2 keeps its fixed box assignment and LED order (its reachable \
-                         states would change)"
-                            .to_string()
-                    } else {
-                        format!("a box assignment is defined for tidy1 only, not for '{task}'")
-                    };
+                if let Some(reason) = refuse("boxes", "a box assignment") {
                     return Err(fail(&event, reason));
                 }
-                let world = Arc::new(tidy::build_with(tidy::Variant::Task1, *boxes));
-                goal = world.goal;
-                enter(&mut worlds, world, goal)
+                // The task parameter takes its new value: the world it configures.
+                let changed = Params {
+                    boxes: *boxes,
+                    ..*params
+                };
+                let world = match registry::configure(spec, &changed) {
+                    Ok(Some(world)) => world,
+                    Ok(None) => Spec::clone(spec),
+                    Err((_, reason)) => return Err(fail(&event, reason)),
+                };
+                enter(&mut worlds, Arc::new(world))
             }
             Event::Delete(pairs) => {
-                if !is_json {
-                    return Err(fail(
-                        &event,
-                        format!("deleting transitions needs a json: task, not '{task}'"),
-                    ));
+                if let Some(reason) = refuse("delete", "deleting transitions") {
+                    return Err(fail(&event, reason));
                 }
                 let world =
                     delete(&worlds[worlds.len() - 1], pairs).map_err(|r| fail(&event, r))?;
-                enter(&mut worlds, Arc::new(world), goal)
+                enter(&mut worlds, Arc::new(world))
             }
             Event::Human(h @ HumanChange::Interaction(i)) => {
-                if *i != Interaction::None && !has_human {
-                    return Err(fail(&event, no_human(task, i.name())));
+                if *i != Interaction::None && !registry::allows_interaction(spec, *i) {
+                    return Err(fail(&event, no_human(spec, i.name())));
                 }
                 nuisance |= *i == Interaction::Nuisance;
                 Action::Human(*h)
             }
             Event::Human(h @ HumanChange::Profile(p)) => {
                 let human = p.human(params.controller).unwrap_or_default();
-                if human.interaction != Interaction::None && !has_human {
-                    return Err(fail(&event, no_human(task, human.interaction.name())));
+                let i = human.interaction;
+                if i != Interaction::None && !registry::allows_interaction(spec, i) {
+                    return Err(fail(&event, no_human(spec, i.name())));
                 }
                 nuisance |= human.interaction == Interaction::Nuisance;
                 Action::Human(*h)
@@ -568,7 +542,7 @@ pub fn compile(
                     ..*params
                 };
                 changed
-                    .validate_for_reward(start.goal_reward)
+                    .validate_for_reward(start.max_abs_reward())
                     .map_err(|e| fail(&event, e.to_string()))?;
                 Action::Human(*h)
             }
@@ -589,10 +563,11 @@ pub fn compile(
     })
 }
 
-fn no_human(task: &str, interaction: &str) -> String {
+fn no_human(spec: &Spec, interaction: &str) -> String {
     format!(
-        "interaction '{interaction}' is not defined for task '{task}': only tidy1 and tidy2 say \
-         which actions are relevant or errors and where a held cube belongs"
+        "interaction '{interaction}' is not defined for task '{}': {}",
+        spec.name,
+        registry::interactions_of(spec)
     )
 }
 
@@ -600,6 +575,14 @@ fn no_human(task: &str, interaction: &str) -> String {
 /// counts are kept and a pair left without outcome becomes a self-loop (SPEC 10, 2.3).
 pub fn delete(spec: &Spec, pairs: &[(StateId, StateId)]) -> Result<Spec, String> {
     let n_a = spec.n_actions;
+    // The rebuilt world gets its arrivals from the goal: a task whose outcomes carry their own
+    // rewards would lose them.
+    let Some(goal) = spec.goal else {
+        return Err(format!(
+            "'{}' has no single goal to rebuild its world around",
+            spec.name
+        ));
+    };
     for &(s, t) in pairs {
         if s as usize >= spec.n_states || t as usize >= spec.n_states {
             return Err(format!(
@@ -636,8 +619,7 @@ pub fn delete(spec: &Spec, pairs: &[(StateId, StateId)]) -> Result<Spec, String>
         n_a,
         outcomes,
         spec.initial_states.clone(),
-        spec.goal,
-        spec.goal_reward,
+        goal,
         spec.state_names.clone(),
         spec.human.clone(),
     ))
@@ -700,7 +682,23 @@ mod tests {
         assert!(err(&tidy1, "10001:boxes=brg").contains("1 to 10000"));
         assert!(err(&tidy2, "5:boxes=brg").contains("tidy2 keeps"));
         assert!(err(&tidy1, "5:goal=3").contains("use boxes"));
-        assert!(err(&tidy1, "5:delete=0-1").contains("json: task"));
+        // Refusals without a task-specific reason name the tasks that accept the event.
+        let message = err(&tidy1, "5:delete=0-1");
+        assert!(
+            message.contains(
+                "deleting transitions is defined for grid:N or json:PATH, not for 'tidy1'"
+            ),
+            "{message}"
+        );
+        let mut boxed = p;
+        boxed.boxes = Boxes::parse("brg").unwrap();
+        let refused = compile(&tidy2, &Schedule::default(), &boxed).unwrap_err();
+        assert_eq!(refused.event, "boxes=brg");
+        assert!(
+            refused
+                .reason
+                .contains("boxes is a parameter of tidy1, not of task 'tidy2'")
+        );
         let plan = compile(&tidy1, &Schedule::parse("5000:boxes=brg").unwrap(), &p).unwrap();
         assert_eq!(plan.worlds.len(), 2);
         assert_eq!(plan.first_change, 5000);
@@ -723,8 +721,10 @@ mod tests {
                 vec![(2, 1.0)],
             ],
             vec![0],
-            2,
-            1.0,
+            crate::env::Goal {
+                state: 2,
+                reward: 1.0,
+            },
             vec!["a".into(), "b".into(), "c".into()],
             None,
         );

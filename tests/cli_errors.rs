@@ -257,7 +257,7 @@ const USAGE_ERRORS: &[(&str, &[&str])] = &[
         &[
             "unknown task 'tidy3'",
             "did you mean 'tidy1'?",
-            "expected tidy1, tidy2 or json:PATH",
+            "expected tidy1, tidy2, grid:N",
         ],
     ),
     (

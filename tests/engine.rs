@@ -226,7 +226,7 @@ fn probabilities_entropies_models_costs_and_values_stay_well_formed_in_a_stochas
 /// Steps a one-run batch one step at a time and checks the reset step at every goal.
 fn check_reset_steps(spec: Arc<Spec>, params: Params) -> usize {
     let mut batch = Batch::new(Arc::clone(&spec), configs(&[params], 22)).unwrap();
-    let goal = spec.goal;
+    let goal = spec.goal_state().unwrap();
     let mut resets = 0;
     for _ in 0..params.babbling + params.steps {
         let before = batch.cursors()[0];
@@ -310,7 +310,9 @@ fn a_transition_into_the_goal_is_backed_up_with_its_reward_only() {
     for s in 0..spec.n_states {
         for a in 0..spec.n_actions {
             let o = spec.outcomes(spec.sa(s, a)).start;
-            if s != spec.goal as usize && spec.outcome_state[o] == spec.goal {
+            if s != spec.goal_state().unwrap() as usize
+                && spec.outcome_state[o] == spec.goal_state().unwrap()
+            {
                 into_goal.push((s, a));
             }
         }
@@ -343,7 +345,7 @@ fn babbling_learns_but_counts_no_reward_no_cost_and_no_decision() {
     let mut batch = Batch::new(Arc::clone(&spec), configs(&[params], 24)).unwrap();
     let mut goals = 0;
     for _ in 0..babbling {
-        if batch.cursors()[0].state == spec.goal {
+        if batch.cursors()[0].state == spec.goal_state().unwrap() {
             goals += 1;
         }
         batch.advance(1);

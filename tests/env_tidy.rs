@@ -178,8 +178,11 @@ fn check_tidy_against_rules(task: &str, task2: bool) {
     let human = spec.human.as_ref().expect("tidy tasks define the human");
     assert_eq!(spec.n_actions, 7);
     assert_eq!(spec.initial_states, vec![0]);
-    assert_eq!(spec.goal_reward, 1.0);
-    assert!(expected[spec.goal as usize].is_goal(), "{task}: goal");
+    assert_eq!(spec.goal.unwrap().reward, 1.0);
+    assert!(
+        expected[spec.goal_state().unwrap() as usize].is_goal(),
+        "{task}: goal"
+    );
     assert_eq!(expected.iter().filter(|s| s.is_goal()).count(), 1);
     for (s, state) in expected.iter().enumerate() {
         for a in 0..7 {
@@ -225,7 +228,10 @@ fn the_navigation_world_has_38_states_and_8_actions() {
     let spec = load(&task);
     assert_eq!((spec.n_states, spec.n_actions), (38, 8));
     assert_eq!(spec.initial_states, vec![0, 32]);
-    assert_eq!((spec.goal, spec.goal_reward), (18, 1.0));
+    assert_eq!(
+        (spec.goal_state().unwrap(), spec.goal.unwrap().reward),
+        (18, 1.0)
+    );
     assert!(spec.human.is_none());
 }
 
@@ -296,8 +302,8 @@ fn hand_made_tidy1_transitions() {
     // The last cube into its box reaches the goal, id 90 as in the authors' export.
     let goal = step_by_name(&spec, "R:redbox G:greenbox B:hand", 5);
     assert_eq!(goal, "R:redbox G:greenbox B:bluebox");
-    assert_eq!(spec.state_names[spec.goal as usize], goal);
-    assert_eq!(spec.goal, 90);
+    assert_eq!(spec.state_names[spec.goal_state().unwrap() as usize], goal);
+    assert_eq!(spec.goal_state().unwrap(), 90);
 }
 
 #[test]
@@ -347,7 +353,7 @@ fn hand_made_tidy2_transitions() {
     // The third LED is the goal.
     let goal = step_by_name(&spec, "R:redbox G:greenbox B:hand LED:2", 5);
     assert_eq!(goal, "R:redbox G:greenbox B:bluebox LED:3");
-    assert_eq!(spec.state_names[spec.goal as usize], goal);
+    assert_eq!(spec.state_names[spec.goal_state().unwrap() as usize], goal);
 }
 
 /// Asserts that two specs have the same dynamics (all but the name and state names).
@@ -363,7 +369,7 @@ fn assert_same_tables(a: &Spec, b: &Spec) {
     assert_eq!(a.outcome_cum, b.outcome_cum, "{what}: outcome_cum");
     assert_eq!(a.initial_states, b.initial_states, "{what}: initial states");
     assert_eq!(a.goal, b.goal, "{what}: goal");
-    assert_eq!(a.goal_reward, b.goal_reward, "{what}: goal reward");
+    assert_eq!(a.arrival, b.arrival, "{what}: arrivals");
 }
 
 #[test]
@@ -400,7 +406,7 @@ fn the_fixture_state_ids_match_the_built_in_state_names() {
         assert_eq!(Tidy::parse(&name).held(), held, "state {id}: held cube");
         assert_eq!(
             cols[5] == "1",
-            id == builtin.goal as usize,
+            id == builtin.goal_state().unwrap() as usize,
             "state {id}: is_goal"
         );
         assert_eq!(
@@ -471,9 +477,9 @@ fn check_invariants(spec: &Spec) {
             "{at}: next state out of range"
         );
     }
-    assert!((spec.goal as usize) < spec.n_states);
+    assert!((spec.goal_state().unwrap() as usize) < spec.n_states);
     assert!(!spec.initial_states.is_empty());
-    assert!(!spec.initial_states.contains(&spec.goal));
+    assert!(!spec.initial_states.contains(&spec.goal_state().unwrap()));
 }
 
 #[test]
@@ -500,7 +506,10 @@ fn loads_the_authors_navworld_with_its_repeated_outcome_merged() {
     let spec = env::json::load(&paths, "json:navworld").expect("navworld loads");
     assert_eq!((spec.n_states, spec.n_actions), (38, 8));
     assert_eq!(spec.initial_states, vec![0, 32]);
-    assert_eq!((spec.goal, spec.goal_reward), (18, 1.0));
+    assert_eq!(
+        (spec.goal_state().unwrap(), spec.goal.unwrap().reward),
+        (18, 1.0)
+    );
     assert_eq!(spec.state_names[37], "s37");
     assert!(spec.human.is_none());
     check_invariants(&spec);

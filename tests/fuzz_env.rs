@@ -94,9 +94,9 @@ fn assert_well_formed(spec: &Spec) {
             .iter()
             .all(|&s| (s as usize) < spec.n_states)
     );
-    assert!((spec.goal as usize) < spec.n_states);
-    assert!(!spec.initial_states.contains(&spec.goal));
-    assert!(spec.goal_reward.is_finite());
+    assert!((spec.goal_state().unwrap() as usize) < spec.n_states);
+    assert!(!spec.initial_states.contains(&spec.goal_state().unwrap()));
+    assert!(spec.goal.unwrap().reward.is_finite());
     assert_eq!(spec.state_names.len(), spec.n_states);
 }
 

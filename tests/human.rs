@@ -397,7 +397,7 @@ fn task_2_led_rules_on_a_hand_made_sequence() {
     assert!(e.error && e.next.leds == 0);
     let spec = env::load("tidy2").unwrap();
     assert_eq!(
-        spec.state_names[spec.goal as usize],
+        spec.state_names[spec.goal_state().unwrap() as usize],
         "R:redbox G:greenbox B:bluebox LED:3"
     );
 }

@@ -804,10 +804,13 @@ fn json_worlds() -> (Arc<Spec>, tempfile::TempDir, String, Vec<(u32, u32)>) {
     let into_goal = (0..base.n_states * base.n_actions)
         .find(|&sa| {
             base.outcomes(sa)
-                .any(|o| base.outcome_state[o] == base.goal)
+                .any(|o| Some(base.outcome_state[o]) == base.goal_state())
         })
         .unwrap();
-    pairs.push(((into_goal / base.n_actions) as u32, base.goal));
+    pairs.push((
+        (into_goal / base.n_actions) as u32,
+        base.goal_state().unwrap(),
+    ));
     let cut = mbmf::schedule::delete(&base, &pairs).unwrap();
     let dir = tempfile::tempdir().unwrap();
     let paths = env::json::export(&cut, dir.path()).unwrap();
@@ -823,7 +826,10 @@ fn goal_moves_world_swaps_and_deletions_on_a_json_world_match_the_naive_referenc
     let texts = [
         String::new(),
         format!("1000:goal={near}"),
-        format!("1000:goal={near}:2.5;1500:goal={}", base.goal),
+        format!(
+            "1000:goal={near}:2.5;1500:goal={}",
+            base.goal_state().unwrap()
+        ),
         format!("900:world={cut}"),
         format!("900:delete={}", delete.join(",")),
         format!(

@@ -12,7 +12,8 @@ use std::time::Duration;
 use criterion::Criterion;
 use mbmf::batch::Batch;
 use mbmf::env::Spec;
-use mbmf::params::{Controller, Params, default_steps};
+use mbmf::env::registry::default_steps;
+use mbmf::params::{Controller, Params};
 
 /// Master seed of every benchmark input, and `runs` runs of some parameters under it: those of
 /// `mbmf bench`, so the two time the same work.

@@ -84,7 +84,7 @@ pub struct Checkpoint {
     pub interactions: u32,
 }
 
-/// Where a run is: its environment state, the regime it is in (world, goal, human: what a
+/// Where a run is: its environment state, the regime it is in (world, human: what a
 /// schedule may change, SPEC 10) and counters that are not results.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct Cursor {
@@ -100,10 +100,6 @@ pub struct Cursor {
     pub world: u16,
     /// The next action of the run's plan to apply.
     pub next_action: u16,
-    /// The rewarded, terminal state now.
-    pub goal: StateId,
-    /// The goal's reward now.
-    pub goal_reward: f64,
     /// The human now (from the parameters, then as events change it).
     pub human: HumanParams,
     /// Who brings the goal's reward now (SPEC 11.1).
@@ -118,12 +114,10 @@ pub struct Cursor {
 
 impl Cursor {
     /// A run at its start in world `spec` with `params`, in state `state`.
-    pub fn start(spec: &Spec, params: &Params, state: StateId) -> Cursor {
+    pub fn start(_spec: &Spec, params: &Params, state: StateId) -> Cursor {
         Cursor {
             state,
             budget_left: params.human.budget,
-            goal: spec.goal,
-            goal_reward: spec.goal_reward,
             human: params.human,
             reward_source: params.reward_source,
             ..Cursor::default()
@@ -189,7 +183,7 @@ impl Batch {
         run_schedule: &[usize],
     ) -> Result<Batch, ConfigError> {
         for config in &configs {
-            config.params.validate_for(&spec)?;
+            crate::env::registry::check_params(&spec, &config.params)?;
         }
         assert!(run_schedule.is_empty() || run_schedule.len() == configs.len());
         // One plan per distinct (schedule, what compiling depends on in the parameters).

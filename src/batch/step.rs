@@ -2,20 +2,20 @@
 //!
 //! Random draws, in this order and only when needed: the human's attentiveness at a takeover
 //! opportunity; the MC's draw (`rnd`, softmax selection, or an argmax tie); the action; the
-//! environment's outcome (pairs with several outcomes only); the human's attentiveness at a
-//! nuisance opportunity (SPEC 11.2); at a human-reward opportunity (11.1); at a congratulation
-//! or punishment opportunity. A reset step draws an initial state only when the environment has
+//! environment's outcome (pairs with several outcomes only); the reward (drawn rewards only);
+//! the human's attentiveness at a nuisance opportunity (SPEC 11.2); at a human-reward
+//! opportunity (11.1); at a congratulation or punishment opportunity. A reset step draws an initial state only when the environment has
 //! several.
 //!
 //! The events of the run's schedule due at an experiment step apply first, before anything of
-//! that step (SPEC 10); from then on the step reads the world, goal and human from the cursor.
+//! that step (SPEC 10); from then on the step reads the world and human from the cursor.
 
 use std::time::Instant;
 
 use super::settled::{Expert, Fold};
 use super::{Checkpoint, RunView, Settled, initial_state, uniform};
 use crate::arbiter::{self, Arbiter, Inputs, Own, Transition, Visit};
-use crate::env::Spec;
+use crate::env::{Chance, End, Spec};
 use crate::expert::{draw, ema, max_of, mf};
 use crate::human::{self, Encounter};
 use crate::params::{
@@ -205,15 +205,30 @@ fn act<A: Arbiter, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
         spec.pick_outcome(sa, uniform(run.rng))
     };
     let mut next = spec.outcome_state[o] as usize;
-    // 11.2: a nuisance human undoes a relevant action before anything learns from it.
+    // Most outcomes bring nothing: one byte says so, and only the others are read.
+    let (mut terminal, mut reset, mut arrival_reward) = (false, false, 0.0);
+    if spec.eventful[o] {
+        let arrival = spec.arrival[o];
+        terminal = arrival.terminal();
+        reset = arrival.end == End::Reset;
+        arrival_reward = arrival.reward;
+        // A drawn reward: its draw comes right after the outcome's (a fixed one draws nothing).
+        if let Chance::Drawn(p) = arrival.chance
+            && uniform(run.rng) >= p
+        {
+            arrival_reward = 0.0;
+        }
+    }
+    // 11.2: a nuisance human undoes a relevant action before anything learns from it; the
+    // cube back on the table is never a goal, so the arrival brings nothing.
     if human_active && let Some(undone) = encounter(spec, human, run, t_exp).nuisance(sa) {
         next = undone;
+        (terminal, reset) = (false, false);
     }
-    let terminal = next == run.cursor.goal as usize;
     let mut reward = if babbling || !terminal {
         0.0
     } else {
-        run.cursor.goal_reward
+        arrival_reward
     };
     // 11.1: where only the human brings reward, an arrival in the goal is an opportunity.
     if HUMAN && terminal && !babbling && run.cursor.reward_source == RewardSource::Human {
@@ -234,9 +249,9 @@ fn act<A: Arbiter, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
     let learned = if shaped { reward + human.zeta } else { reward };
     run.bonus[sa] = if shaped { 0 } else { g };
 
-    // 8. Learning, by every expert the rule runs (after the rule has seen the transition). The arrival is terminal when it is the
-    // goal at this time (SPEC 10): both experts learn that from the transition itself.
-    run.cursor.pending_reset = terminal;
+    // 8. Learning, by every expert the rule runs (after the rule has seen the transition). The arrival is
+    // terminal when the world at this time says so (SPEC 10): both experts learn that from the transition itself.
+    run.cursor.pending_reset = reset;
     if A::OBSERVES {
         let t = Transition {
             s,
@@ -502,16 +517,7 @@ fn apply_due(plan: &Plan, params: &Params, run: &mut RunView<'_>, t_exp: u32) {
         run.cursor.next_action += 1;
         let cursor = &mut *run.cursor;
         match action {
-            Action::World { world, goal } => {
-                cursor.world = world;
-                cursor.goal = goal;
-            }
-            Action::Goal { state, reward } => {
-                cursor.goal = state;
-                if let Some(r) = reward {
-                    cursor.goal_reward = r;
-                }
-            }
+            Action::World(world) => cursor.world = world,
             Action::Human(change) => match change {
                 HumanChange::Interaction(i) => cursor.human.interaction = i,
                 HumanChange::Budget(n) => cursor.budget_left = n,

@@ -14,7 +14,8 @@ use crate::env::Spec;
 pub enum EnvCommand {
     /// Print the state and action counts, the goal and a few state names.
     Info {
-        /// tidy1, tidy2 or json:PATH.
+        /// The task (the list is the task registry's).
+        #[arg(help = crate::env::registry::short_help(), long_help = crate::env::registry::help())]
         task: String,
         /// The json: task's files, if not beside the model.
         #[command(flatten)]
@@ -24,7 +25,8 @@ pub enum EnvCommand {
     ///
     /// Example: mbmf env export tidy1 --json out/tidy1
     Export {
-        /// tidy1, tidy2 or json:PATH.
+        /// The task (the list is the task registry's).
+        #[arg(help = crate::env::registry::short_help(), long_help = crate::env::registry::help())]
         task: String,
         /// Folder to write TASK.json, keyStates.txt and spaces.txt into.
         #[arg(long)]
@@ -148,16 +150,21 @@ fn env_info(spec: &Spec) -> String {
     } else {
         writeln!(out, "initial   {initial:?}")
     };
-    let goal_name = spec
-        .state_names
-        .get(spec.goal as usize)
-        .map_or("?", String::as_str);
-    let _ = writeln!(
-        out,
-        "goal      {} ({goal_name}), reward {}",
-        spec.goal,
-        readable(spec.goal_reward)
-    );
+    let _ = match spec.goal {
+        Some(goal) => {
+            let goal_name = spec
+                .state_names
+                .get(goal.state as usize)
+                .map_or("?", String::as_str);
+            writeln!(
+                out,
+                "goal      {} ({goal_name}), reward {}",
+                goal.state,
+                readable(goal.reward)
+            )
+        }
+        None => writeln!(out, "goal      none (each outcome carries its own reward)"),
+    };
     let _ = writeln!(
         out,
         "human     {}",

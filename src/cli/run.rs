@@ -9,15 +9,16 @@ use clap::Args;
 
 use super::args::{ParamArgs, batch_size, explain, load_task, runs_count, seed};
 use super::{Failure, progress, signal, usage};
-use crate::params::{Controller, Params, Profile, default_steps};
+use crate::env::registry;
+use crate::params::{Controller, Params, Profile};
 use crate::run;
 use crate::schedule::Schedule;
 
 /// `mbmf run`.
 #[derive(Debug, Clone, Args)]
 pub struct RunArgs {
-    /// tidy1, tidy2 or json:PATH (the authors' format, keyStates.txt and spaces.txt beside it).
-    #[arg(long, default_value = "tidy1")]
+    /// The task (the list is the task registry's).
+    #[arg(long, default_value = "tidy1", help = registry::short_help(), long_help = registry::help())]
     pub task: String,
     /// keyStates.txt of a json: task, if not beside the model file.
     #[arg(long)]
@@ -82,7 +83,8 @@ fn controller_params(args: &RunArgs) -> Result<Vec<Params>> {
             human: profile.human(controller).unwrap_or_default(),
             profile,
             reward_source: profile.reward_source().unwrap_or_default(),
-            steps: default_steps(&args.task),
+            steps: registry::default_steps(&args.task),
+            babbling: registry::default_babbling(&args.task),
             ..Params::default()
         };
         args.params.apply(&mut params);

@@ -12,7 +12,23 @@
 //!   corner when N is a rectangle; arriving there gives reward 1 (then the reset step, SPEC 2.1);
 //! - state names are `"x,y"`; the human does not interact (no relevant actions are defined).
 
-use super::{Spec, StateId};
+use super::registry::{DEFAULTS, Task};
+use super::{EnvError, Goal, Spec, StateId};
+
+/// The grid worlds in the task registry.
+pub const GRID: Task = Task {
+    name: "grid:N",
+    help: "a grid world of N cells (2 to 1000000), slippery moves, goal in the far corner",
+    build: |task| {
+        let n = task.strip_prefix("grid:").unwrap_or(task);
+        parse(n).map_err(|error| EnvError::Grid {
+            task: task.to_string(),
+            error,
+        })
+    },
+    events: &["world", "goal", "delete"],
+    ..DEFAULTS
+};
 
 /// Actions of every grid world.
 pub const N_ACTIONS: usize = 5;
@@ -129,8 +145,10 @@ pub fn build(n_states: usize) -> Result<Spec, GridError> {
         N_ACTIONS,
         outcomes,
         vec![0],
-        (n_states - 1) as StateId,
-        1.0,
+        Goal {
+            state: (n_states - 1) as StateId,
+            reward: 1.0,
+        },
         state_names,
         None,
     ))
@@ -221,7 +239,7 @@ mod tests {
         for n in [2, 3, 100, 101, 10_000] {
             let spec = build(n).unwrap();
             assert_eq!(spec.initial_states, vec![0]);
-            assert_eq!(spec.goal as usize, n - 1);
+            assert_eq!(spec.goal_state(), Some((n - 1) as StateId));
             assert!(spec.human.is_none());
             // Breadth-first search over outcomes with positive probability.
             let mut seen = vec![false; n];

@@ -13,7 +13,21 @@ use std::path::{Path, PathBuf};
 
 use serde_json::{Map, Value};
 
-use super::{JsonPaths, Spec, StateId};
+use super::registry::{DEFAULTS, Task};
+use super::{Goal, JsonPaths, Spec, StateId};
+
+/// The authors' file worlds in the task registry.
+pub const JSON: Task = Task {
+    name: "json:PATH",
+    help: "a world in the authors' transition-model format (keyStates.txt and spaces.txt \
+           beside it)",
+    build: |task| {
+        let path = task.strip_prefix("json:").unwrap_or(task);
+        Ok(load(&JsonPaths::beside(path), task)?)
+    },
+    events: &["world", "goal", "delete"],
+    ..DEFAULTS
+};
 
 /// Most distinct next states one state-action pair may have (outcome indices fit in a `u16`).
 pub const MAX_OUTCOMES_PER_PAIR: usize = u16::MAX as usize;
@@ -372,8 +386,10 @@ pub fn load(paths: &JsonPaths, name: &str) -> Result<Spec, EnvFileError> {
         n_actions,
         outcomes,
         keys.initial,
-        keys.goal,
-        keys.reward,
+        Goal {
+            state: keys.goal,
+            reward: keys.reward,
+        },
         state_names,
         None,
     ))
@@ -974,7 +990,7 @@ pub fn export(spec: &Spec, dir: &Path) -> Result<JsonPaths, EnvFileError> {
         name: spec.name.clone(),
         reason,
     };
-    check_exportable(spec).map_err(invalid)?;
+    let goal = check_exportable(spec).map_err(invalid)?;
     let model = model_text(spec).map_err(invalid)?;
     fs::create_dir_all(dir).map_err(|error| EnvFileError::Write {
         path: dir.to_path_buf(),
@@ -982,7 +998,7 @@ pub fn export(spec: &Spec, dir: &Path) -> Result<JsonPaths, EnvFileError> {
     })?;
     let paths = export_paths(spec, dir);
     write_atomic(&paths.model, &model)?;
-    write_atomic(&paths.key_states, &key_states_text(spec))?;
+    write_atomic(&paths.key_states, &key_states_text(spec, goal))?;
     write_atomic(&paths.spaces, &spaces_text(spec))?;
     Ok(paths)
 }
@@ -998,7 +1014,7 @@ pub fn export_paths(spec: &Spec, dir: &Path) -> JsonPaths {
 
 /// Checks that `spec` is consistent and would pass [`load`]'s validation, so that [`export`]
 /// never indexes out of bounds nor writes files that do not load back.
-fn check_exportable(spec: &Spec) -> Result<(), String> {
+fn check_exportable(spec: &Spec) -> Result<Goal, String> {
     let (n_states, n_actions) = (spec.n_states, spec.n_actions);
     if n_states == 0 || n_actions == 0 {
         return Err(format!(
@@ -1057,16 +1073,21 @@ fn check_exportable(spec: &Spec) -> Result<(), String> {
     if sorted.windows(2).any(|w| w[0] == w[1]) {
         return Err("an initial state is listed twice".to_string());
     }
-    if spec.goal as usize >= n_states || initial.contains(&spec.goal) {
+    // The authors' format has one goal and one fixed reward: a task whose outcomes carry their
+    // own rewards has no such file.
+    let Some(goal) = spec.goal else {
+        return Err("it has no single goal state (the format has one goal and its reward)".into());
+    };
+    if goal.state as usize >= n_states || initial.contains(&goal.state) {
         return Err(format!(
             "goal {} must be a state below {n_states} that is not initial",
-            spec.goal
+            goal.state
         ));
     }
-    if !spec.goal_reward.is_finite() {
-        return Err(format!("goal reward {} is not finite", spec.goal_reward));
+    if !goal.reward.is_finite() {
+        return Err(format!("goal reward {} is not finite", goal.reward));
     }
-    Ok(())
+    Ok(goal)
 }
 
 /// The file name (without `.json`) under which [`export`] writes a spec's model.
@@ -1145,7 +1166,7 @@ fn count_text(w: f64) -> Option<String> {
 }
 
 /// `keyStates.txt` with the authors' comments.
-fn key_states_text(spec: &Spec) -> String {
+fn key_states_text(spec: &Spec, goal: Goal) -> String {
     let initial: Vec<String> = spec.initial_states.iter().map(|s| s.to_string()).collect();
     format!(
         "# {} in the authors' transition-model format, written by mbmf\n\
@@ -1155,8 +1176,8 @@ fn key_states_text(spec: &Spec) -> String {
          goal {} {}\n",
         spec.name.replace('\n', " "),
         initial.join(" "),
-        spec.goal,
-        number_text(spec.goal_reward)
+        goal.state,
+        number_text(goal.reward)
     )
 }
 
@@ -1279,7 +1300,13 @@ mod tests {
         let spec = load(&tidy1_paths(), "json:tidy1").expect("tidy1 fixture loads");
         assert_eq!((spec.n_states, spec.n_actions), (112, 7));
         assert_eq!(spec.initial_states, vec![0]);
-        assert_eq!((spec.goal, spec.goal_reward), (90, 1.0));
+        assert_eq!(
+            spec.goal,
+            Some(Goal {
+                state: 90,
+                reward: 1.0
+            })
+        );
         assert_eq!(spec.name, "json:tidy1");
         assert_eq!(spec.max_branching(), 1, "tidy task 1 is deterministic");
         assert_well_formed(&spec);
@@ -1315,7 +1342,13 @@ mod tests {
         let world = world(MODEL, key_states, spaces);
         let spec = load(&world.paths, "test").expect("comments are accepted");
         assert_eq!(spec.initial_states, vec![1, 0]);
-        assert_eq!((spec.goal, spec.goal_reward), (2, -0.5));
+        assert_eq!(
+            spec.goal,
+            Some(Goal {
+                state: 2,
+                reward: -0.5
+            })
+        );
     }
 
     #[test]
@@ -1326,7 +1359,7 @@ mod tests {
         let world = world(model, "init 0\ngoal 2 2.5\n", SPACES);
         let spec = load(&world.paths, "test").expect("decimals are accepted");
         assert_eq!(spec.outcome_cum[spec.outcomes(0)], [0.25, 1.0]);
-        assert_eq!(spec.goal_reward, 2.5);
+        assert_eq!(spec.goal.map(|g| g.reward), Some(2.5));
     }
 
     #[test]
@@ -2107,8 +2140,10 @@ mod tests {
             2,
             outcomes,
             vec![2, 0],
-            3,
-            -0.125,
+            Goal {
+                state: 3,
+                reward: -0.125,
+            },
             names,
             None,
         )
@@ -2180,7 +2215,10 @@ mod tests {
         let cases = [
             (
                 Spec {
-                    goal: 2,
+                    goal: Some(Goal {
+                        state: 2,
+                        reward: -0.125,
+                    }),
                     ..good.clone()
                 },
                 "not initial",
@@ -2194,7 +2232,10 @@ mod tests {
             ),
             (
                 Spec {
-                    goal_reward: f64::NAN,
+                    goal: Some(Goal {
+                        state: 3,
+                        reward: f64::NAN,
+                    }),
                     ..good.clone()
                 },
                 "not finite",

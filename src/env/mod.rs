@@ -6,9 +6,26 @@
 //! The MB expert's learned model reuses this indexing (it can only ever observe outcomes the
 //! environment can produce), which keeps its memory proportional to the real branching factor.
 
-pub mod grid;
-pub mod json;
-pub mod tidy;
+pub mod registry;
+
+/// Declares the task modules and lists their [`registry::Task`]s, in the order help texts
+/// show them: `module => CONST, ...;`.
+macro_rules! tasks {
+    ($($module:ident => $($task:ident),+;)*) => {
+        $(pub mod $module;)*
+
+        /// Every registered task (see [`registry`]).
+        pub const TASKS: &[registry::Task] = &[$($($module::$task),+),*];
+    };
+}
+
+// The task registry: a new task is its file and one line here.
+tasks! {
+    tidy => TIDY1, TIDY2;
+    grid => GRID;
+    json => JSON;
+    chain => CHAIN;
+}
 
 use std::path::PathBuf;
 
@@ -36,10 +53,69 @@ pub struct HumanTables {
     pub nuisance: Vec<StateId>,
 }
 
+/// The rewarded, terminal state of a goal task and its reward (SPEC 2: every arrival in it is
+/// rewarded and followed by the reset step).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Goal {
+    /// The state.
+    pub state: StateId,
+    /// The reward of an arrival in it.
+    pub reward: f64,
+}
+
+/// How an arrival's reward is had.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Chance {
+    /// Always: no random draw.
+    Always,
+    /// With probability `p`: one uniform draw at every arrival (babbling included, where the
+    /// reward is then withheld), the reward given when the draw is below `p` (SPEC 13's
+    /// Bernoulli rewards; their drift will read `p` from per-run task state instead).
+    Drawn(f64),
+}
+
+/// What an arrival does to the episode.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum End {
+    /// It goes on.
+    Continue,
+    /// The arrival is terminal and the next step is the reset step (SPEC 2.1).
+    Reset,
+    /// The arrival is terminal and already the start of the next episode: no reset step
+    /// (SPEC 13).
+    Restart,
+}
+
+/// What arriving by one outcome brings.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Arrival {
+    /// The reward (when drawn, the reward of a success; a failure gives 0).
+    pub reward: f64,
+    /// How the reward is had.
+    pub chance: Chance,
+    /// Whether and how the arrival ends the episode.
+    pub end: End,
+}
+
+impl Arrival {
+    /// No reward, the episode goes on.
+    pub const NOTHING: Arrival = Arrival {
+        reward: 0.0,
+        chance: Chance::Always,
+        end: End::Continue,
+    };
+
+    /// Whether the arrival is terminal: no future term for MF, and MB remembers it (SPEC 10).
+    #[inline(always)]
+    pub fn terminal(self) -> bool {
+        self.end != End::Continue
+    }
+}
+
 /// A compiled, validated, read-only tabular environment.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Spec {
-    /// The name the user gave (`tidy1`, `tidy2`, `json:PATH`, ...).
+    /// The name the user gave (a task of the [`registry`], e.g. `tidy1` or `json:PATH`).
     pub name: String,
     /// Number of states |S|.
     pub n_states: usize,
@@ -55,10 +131,16 @@ pub struct Spec {
     pub outcome_cum: Vec<f64>,
     /// States a run starts in and resets to (drawn uniformly when there are several).
     pub initial_states: Vec<StateId>,
-    /// The rewarded, terminal state.
-    pub goal: StateId,
-    /// Reward for arriving in the goal.
-    pub goal_reward: f64,
+    /// What arriving by each outcome brings: its reward model and whether it ends the episode.
+    /// The step reads only this, never [`goal`](Spec::goal).
+    pub arrival: Vec<Arrival>,
+    /// Per outcome: its arrival is something other than [`Arrival::NOTHING`]. The step reads
+    /// this byte and the arrival only where it is set (most outcomes bring nothing); set with
+    /// the arrivals by [`with_arrivals`](Spec::with_arrivals).
+    pub eventful: Vec<bool>,
+    /// The goal of a task with one rewarded, terminal state (tidy, `grid:`, `json:`), from which
+    /// [`arrival`](Spec::arrival) was built; `None` for a task whose outcomes say it themselves.
+    pub goal: Option<Goal>,
     /// A readable name per state id.
     pub state_names: Vec<String>,
     /// Human-interaction tables; `None` where the task does not define them (`json:` worlds).
@@ -111,26 +193,53 @@ impl Spec {
         last
     }
 
-    /// Reward of a transition arriving in `next` (SPEC 2: only the goal is rewarded).
-    #[inline(always)]
-    pub fn reward(&self, next: StateId) -> f64 {
-        if next == self.goal {
-            self.goal_reward
-        } else {
-            0.0
-        }
+    /// The goal's state, for a goal task.
+    pub fn goal_state(&self) -> Option<StateId> {
+        self.goal.map(|g| g.state)
     }
 
-    /// Builds a spec from per-pair outcome lists `(next_state, weight)`, filling the CSR arrays and
-    /// cumulative probabilities. Pairs with no outcome become self-loops (SPEC 2.3).
+    /// The largest reward magnitude any arrival can bring (what value bounds are computed from).
+    pub fn max_abs_reward(&self) -> f64 {
+        self.arrival
+            .iter()
+            .map(|a| a.reward.abs())
+            .fold(0.0, f64::max)
+    }
+
+    /// This world with its goal moved to `goal` (SPEC 10): every arrival in `goal.state` is
+    /// rewarded with `goal.reward` and followed by the reset step, every other one is nothing.
+    pub fn with_goal(self, goal: Goal) -> Spec {
+        let arrivals = goal_arrivals(&self.outcome_state, goal);
+        let mut spec = self.with_arrivals(arrivals);
+        spec.goal = Some(goal);
+        spec
+    }
+
+    /// This world with the arrivals `arrivals` (one per outcome) and no single goal: what a task
+    /// whose outcomes carry their own rewards builds.
+    pub fn with_arrivals(mut self, arrivals: Vec<Arrival>) -> Spec {
+        assert_eq!(
+            arrivals.len(),
+            self.outcome_state.len(),
+            "one arrival per outcome"
+        );
+        self.eventful = arrivals.iter().map(|&a| a != Arrival::NOTHING).collect();
+        self.arrival = arrivals;
+        self.goal = None;
+        self
+    }
+
+    /// Builds a spec of a goal task from per-pair outcome lists `(next_state, weight)`, filling
+    /// the CSR arrays and cumulative probabilities. Pairs with no outcome become self-loops
+    /// (SPEC 2.3). A task whose outcomes are not goal arrivals sets [`arrival`](Spec::arrival)
+    /// (and clears [`goal`](Spec::goal)) afterwards.
     pub fn from_outcomes(
         name: String,
         n_states: usize,
         n_actions: usize,
         mut outcomes: Vec<Vec<(StateId, f64)>>,
         initial_states: Vec<StateId>,
-        goal: StateId,
-        goal_reward: f64,
+        goal: Goal,
         state_names: Vec<String>,
         human: Option<HumanTables>,
     ) -> Spec {
@@ -164,6 +273,8 @@ impl Spec {
             }
             outcome_start.push(outcome_state.len() as u32);
         }
+        let arrival = goal_arrivals(&outcome_state, goal);
+        let eventful = arrival.iter().map(|&a| a != Arrival::NOTHING).collect();
         Spec {
             name,
             n_states,
@@ -173,12 +284,32 @@ impl Spec {
             outcome_weight,
             outcome_cum,
             initial_states,
-            goal,
-            goal_reward,
+            arrival,
+            eventful,
+            goal: Some(goal),
             state_names,
             human,
         }
     }
+}
+
+/// The arrivals of a goal task: the goal's reward and the reset step for every outcome arriving
+/// in it, nothing for the others.
+fn goal_arrivals(outcome_state: &[StateId], goal: Goal) -> Vec<Arrival> {
+    outcome_state
+        .iter()
+        .map(|&next| {
+            if next == goal.state {
+                Arrival {
+                    reward: goal.reward,
+                    chance: Chance::Always,
+                    end: End::Reset,
+                }
+            } else {
+                Arrival::NOTHING
+            }
+        })
+        .collect()
 }
 
 /// Where a `json:` environment's three files are.
@@ -210,9 +341,9 @@ impl JsonPaths {
 pub enum EnvError {
     /// The task name is none of the known ones.
     #[error(
-        "unknown task '{0}': {hint}expected tidy1, tidy2 or json:PATH (the authors' \
-         transition-model file, with keyStates.txt and spaces.txt beside it)",
-        hint = task_hint(.0)
+        "unknown task '{0}': {hint}expected {names}",
+        hint = task_hint(.0),
+        names = registry::names()
     )]
     UnknownTask(String),
     /// A `grid:N` task whose N is not an accepted number of states.
@@ -228,9 +359,6 @@ pub enum EnvError {
     File(#[from] crate::env::json::EnvFileError),
 }
 
-/// The built-in task names.
-const TASKS: [&str; 2] = ["tidy1", "tidy2"];
-
 /// "did you mean ...? " for a task name that is not known, or nothing when no guess is close.
 fn task_hint(task: &str) -> String {
     let lower = task.to_lowercase();
@@ -244,28 +372,16 @@ fn task_hint(task: &str) -> String {
         Some(rest) if !rest.is_empty() => Some(format!("json:{rest}")),
         Some(_) => None,
         None if task.contains('/') || lower.ends_with(".json") => Some(format!("json:{task}")),
-        None => crate::suggest::closest(&lower, TASKS).map(str::to_string),
+        None => crate::suggest::closest(&lower, registry::plain_names()).map(str::to_string),
     };
     guess.map_or_else(String::new, |g| format!("did you mean '{g}'? "))
 }
 
-/// Builds the environment named by `task`: `tidy1`, `tidy2` or `json:PATH`.
+/// Builds the environment named by `task`, a task of the [`registry`].
 pub fn load(task: &str) -> Result<Spec, EnvError> {
-    match task {
-        "tidy1" => Ok(tidy::build(tidy::Variant::Task1)),
-        "tidy2" => Ok(tidy::build(tidy::Variant::Task2)),
-        _ => {
-            if let Some(n) = task.strip_prefix("grid:") {
-                grid::parse(n).map_err(|error| EnvError::Grid {
-                    task: task.to_string(),
-                    error,
-                })
-            } else if let Some(path) = task.strip_prefix("json:") {
-                Ok(json::load(&JsonPaths::beside(path), task)?)
-            } else {
-                Err(EnvError::UnknownTask(task.to_string()))
-            }
-        }
+    match registry::find(task) {
+        Some(t) => (t.build)(task),
+        None => Err(EnvError::UnknownTask(task.to_string())),
     }
 }
 
@@ -296,6 +412,6 @@ mod error_tests {
     fn a_name_far_from_every_task_gets_no_guess() {
         let message = EnvError::UnknownTask("gridworld".into()).to_string();
         assert!(!message.contains("did you mean"), "{message}");
-        assert!(message.contains("expected tidy1, tidy2 or json:PATH"));
+        assert!(message.contains(&format!("expected {}", registry::names())));
     }
 }

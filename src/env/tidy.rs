@@ -6,7 +6,9 @@
 
 use std::collections::{HashMap, VecDeque};
 
-use super::{HumanTables, NO_NUISANCE, NO_TAKEOVER, Spec, StateId};
+use super::registry::{DEFAULTS, Task};
+use super::{Goal, HumanTables, NO_NUISANCE, NO_TAKEOVER, Spec, StateId};
+use crate::params::Interaction;
 
 /// Number of cubes (red, green, blue).
 pub const N_CUBES: usize = 3;
@@ -79,6 +81,69 @@ impl std::fmt::Display for Boxes {
         Ok(())
     }
 }
+
+/// tidy1's box assignments as sweep files and flags name them: permutations of `rgb`, position
+/// i the box of cube i.
+pub const BOX_NAMES: &[&str] = &["rgb", "rbg", "grb", "gbr", "brg", "bgr"];
+
+impl crate::params::ParamValue for Boxes {
+    const KIND: crate::params::Kind = crate::params::Kind::Choice(BOX_NAMES);
+    fn to_value(self) -> crate::params::Value {
+        let name = self.to_string();
+        crate::params::Value::Choice(BOX_NAMES.iter().find(|n| **n == name).unwrap_or(&"rgb"))
+    }
+    fn from_value(value: &crate::params::Value) -> Option<Self> {
+        match value {
+            crate::params::Value::Choice(name) => Boxes::parse(name).ok(),
+            _ => None,
+        }
+    }
+}
+
+/// Every interaction type: the tidy tasks define what each needs (SPEC 5, 11.2).
+const INTERACTIONS: &[Interaction] = &[
+    Interaction::Congratulation,
+    Interaction::Takeover,
+    Interaction::Punishment,
+    Interaction::Nuisance,
+];
+
+/// Task 1 in the task registry.
+pub const TIDY1: Task = Task {
+    name: "tidy1",
+    help: "the paper's task 1: put each of three cubes in its box (112 states, 7 actions)",
+    build: |_| Ok(build(Variant::Task1)),
+    interactions: INTERACTIONS,
+    events: &["boxes"],
+    refusals: &[(
+        "goal",
+        "tidy1's objective is its box assignment: use boxes=PERM (e.g. 5000:boxes=brg)",
+    )],
+    params: &["boxes"],
+    configure: |p| Ok((p.boxes != Boxes::RGB).then(|| build_with(Variant::Task1, p.boxes))),
+    ..DEFAULTS
+};
+
+/// Task 2 in the task registry.
+pub const TIDY2: Task = Task {
+    name: "tidy2",
+    help: "the paper's task 2: light three LEDs in order (142 states, 7 actions)",
+    build: |_| Ok(build(Variant::Task2)),
+    default_steps: 20_000,
+    interactions: INTERACTIONS,
+    refusals: &[
+        (
+            "goal",
+            "tidy2 keeps its fixed objective (its reachable states would change)",
+        ),
+        (
+            "boxes",
+            "tidy2 keeps its fixed box assignment and LED order (its reachable states would \
+             change)",
+        ),
+    ],
+    ..DEFAULTS
+};
 
 /// Which tidy task.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -319,8 +384,10 @@ pub fn build_with(variant: Variant, boxes: Boxes) -> Spec {
         N_ACTIONS,
         outcomes,
         vec![0],
-        goal as StateId,
-        1.0,
+        Goal {
+            state: goal as StateId,
+            reward: 1.0,
+        },
         states.iter().map(|s| s.name(variant)).collect(),
         Some(HumanTables {
             relevant,
@@ -340,6 +407,27 @@ mod tests {
         let states = enumerate(Variant::Task1);
         assert_eq!(states.len(), 112);
         assert_eq!(states.iter().filter(|s| s.held().is_none()).count(), 64);
+    }
+
+    #[test]
+    fn a_nuisance_never_leaves_the_robot_in_the_goal() {
+        // The step treats an undone arrival as bringing nothing: true only if no nuisance state
+        // is a goal, for every box assignment.
+        let worlds = BOX_NAMES
+            .iter()
+            .map(|b| build_with(Variant::Task1, Boxes::parse(b).unwrap()));
+        for spec in worlds.chain([build(Variant::Task2)]) {
+            let goal = spec.goal_state().unwrap();
+            let tables = spec.human.as_ref().unwrap();
+            let undone: Vec<StateId> = tables
+                .nuisance
+                .iter()
+                .copied()
+                .filter(|&s| s != NO_NUISANCE)
+                .collect();
+            assert!(!undone.is_empty(), "{}", spec.name);
+            assert!(!undone.contains(&goal), "{}", spec.name);
+        }
     }
 
     #[test]

@@ -668,8 +668,10 @@ mod tests {
             1,
             vec![vec![(1, 1.0), (2, 1.0)], vec![(2, 1.0)], vec![(2, 1.0)]],
             vec![0],
-            2,
-            1.0,
+            crate::env::Goal {
+                state: 2,
+                reward: 1.0,
+            },
             vec!["a".into(), "b".into(), "g".into()],
             None,
         )
@@ -817,21 +819,21 @@ mod tests {
         for step in 1..=steps {
             let s = loop {
                 let s = (u() * spec.n_states as f64) as usize;
-                if s != spec.goal as usize {
+                if Some(s as StateId) != spec.goal_state() {
                     break s;
                 }
             };
             let a = (u() * spec.n_actions as f64) as usize;
             let o = spec.pick_outcome(spec.sa(s, a), u());
             let r = if u() < 0.5 {
-                spec.reward(spec.outcome_state[o])
+                spec.arrival[o].reward
             } else {
                 0.0
             };
             let next = spec.outcome_state[o];
             owned
                 .view()
-                .learn(window_n, s, a, next as usize, r, next == spec.goal);
+                .learn(window_n, s, a, next as usize, r, spec.arrival[o].terminal());
             if step % every == 0 {
                 let inc = owned
                     .view()
@@ -882,7 +884,7 @@ mod tests {
         ] {
             let sa = spec.sa(s, a);
             let next = spec.outcome_state[spec.outcomes(sa).start] as usize;
-            let terminal = next == spec.goal as usize;
+            let terminal = spec.arrival[spec.outcomes(sa).start].terminal();
             owned.view().learn(10, s, a, next, 1.0, terminal);
         }
         let mut q = vec![0.0; spec.n_states * spec.n_actions];
@@ -940,8 +942,10 @@ mod tests {
             1,
             vec![vec![(2, 1.0)], vec![(0, 1.0)], vec![(2, 1.0)]],
             vec![0],
-            2,
-            1.0,
+            crate::env::Goal {
+                state: 2,
+                reward: 1.0,
+            },
             vec!["a".into(), "b".into(), "g".into()],
             None,
         );

@@ -18,7 +18,7 @@ const DOCS: &[(&str, &str, &str)] = &[
     ("master_seed", "master seed of the run or sweep", ""),
     ("config_index", "configuration of the run: the sweep's configuration index, or for mbmf run the controller's position in --controller", ""),
     ("seed_index", "replicate of the configuration: 0 to seeds-1 in a sweep, 0 to runs-1 in mbmf run", ""),
-    ("task", "task name (tidy1, tidy2 or the json world)", ""),
+    ("task", "task name as given (a task of the registry: mbmf run --help lists them)", ""),
     ("total_reward", "reward over the experiment (babbling excluded)", "reward"),
     ("reward_last10", "reward over the last 10% of steps", "reward"),
     ("first_reward_step", "1-based experiment step whose transition first reached the goal; null if none", "steps"),

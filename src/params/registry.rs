@@ -22,7 +22,7 @@ pub enum Kind {
     Switch,
     /// One of a fixed set of names.
     Choice(&'static [&'static str]),
-    /// tidy1, tidy2 or json:PATH.
+    /// A task of the task registry ([`crate::env::registry`]).
     Task,
     /// A built-in profile name or one defined in a sweep file.
     Profile,
@@ -167,6 +167,9 @@ pub struct Param {
     pub set_by_profile: bool,
     /// Whether it is a field of [`crate::params::HumanParams`].
     pub in_human: bool,
+    /// Whether it is a task parameter, declared with the tasks that read it
+    /// ([`crate::env::registry`]).
+    pub task: bool,
     /// Its value in a run's parameters.
     pub get: fn(&Params) -> Value,
     /// Sets it from a value of its kind (values of another kind are ignored).
@@ -211,8 +214,9 @@ pub(crate) use first;
 ///  [, accepts "RANGE" if |x| CHECK] [, help "MORE"];`
 ///
 /// where CLASS is `flag` (a flag of `mbmf run` and a sweep key), `after_profile` (the same, and
-/// a profile sets it) or `special` (its flag and key are hand-written), and `in human` puts the
-/// field in `HumanParams` (a profile sets it too).
+/// a profile sets it), `task` (the same, declared with the tasks that read it) or `special`
+/// (its flag and key are hand-written), and `in human` puts the field in `HumanParams` (a
+/// profile sets it too).
 macro_rules! registry {
     ($(
         $class:ident $field:ident $(as $key:ident)? $([$($alias:literal),*])? $(in $group:ident)?
@@ -234,6 +238,7 @@ macro_rules! registry {
                 flag: $crate::params::registry::registry!(@flag $class),
                 set_by_profile: $crate::params::registry::registry!(@by_profile $class) || $crate::params::registry::registry!(@human $($group)?),
                 in_human: $crate::params::registry::registry!(@human $($group)?),
+                task: $crate::params::registry::registry!(@task $class),
                 get: |p| $crate::params::registry::ParamValue::to_value(p $(.$group)? .$field),
                 set: |p, v| {
                     if let Some(x) = <$ty as $crate::params::registry::ParamValue>::from_value(v) {
@@ -281,6 +286,8 @@ macro_rules! registry {
     };
     (@flag special) => { false };
     (@flag $class:ident) => { true };
+    (@task task) => { true };
+    (@task $class:ident) => { false };
     (@by_profile after_profile) => { true };
     (@by_profile $class:ident) => { false };
     (@human human) => { true };

@@ -14,9 +14,10 @@ use toml::Spanned;
 use toml::de::{DeTable, DeValue};
 
 use super::keys::{self, Key, Kind, N_KEYS, Value};
+use crate::env::registry;
 use crate::env::{self, Spec};
 use crate::params::ConfigError;
-use crate::params::{Params, Profile, default_steps};
+use crate::params::{Params, Profile};
 use crate::schedule::{Event, Schedule};
 use crate::sizing::{Shrink, Size};
 
@@ -193,7 +194,7 @@ fn kind_name(kind: Kind) -> String {
         Kind::Count => "a whole number from 0 to 4294967295".into(),
         Kind::Switch => "true or false".into(),
         Kind::Choice(names) => format!("one of {}", names.join(", ")),
-        Kind::Task => "a task name (tidy1, tidy2, json:PATH, ...)".into(),
+        Kind::Task => format!("a task name ({})", registry::names()),
         Kind::Schedule => "a schedule of changes, STEP:KEY=VALUE events joined by ';' (e.g. \
              \"1601:goal=34;1601:world=json:PATH\"), or \"\" for none"
             .into(),
@@ -1311,7 +1312,8 @@ impl Sweep {
         };
         let task = self.tasks.iter().position(|t| *t == task_name).unwrap_or(0);
         let mut params = Params {
-            steps: default_steps(&task_name),
+            steps: registry::default_steps(&task_name),
+            babbling: registry::default_babbling(&task_name),
             ..Params::default()
         };
         for key in Key::all().filter(|k| !k.is_human()) {
@@ -1490,7 +1492,7 @@ impl Sweep {
                 format!("configuration {config} ({}): {e}", self.describe(config)),
             ));
         }
-        if let Err(e) = r.params.validate_for(&specs[r.task]) {
+        if let Err(e) = registry::check_params(&specs[r.task], &r.params) {
             // Not an exhaustive match, so a new error kind elsewhere does not break this.
             let key = if let ConfigError::InvalidParam { name, .. } = &e {
                 Key::lookup(name).unwrap_or(Key::Task)

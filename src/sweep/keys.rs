@@ -7,8 +7,8 @@ use crate::params::{PARAMS, Params};
 /// A key a sweep file may set.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Key {
-    /// The task: tidy1, tidy2, json:PATH (PATH relative to the sweep file), or any task of
-    /// `mbmf run`.
+    /// The task: any task of the task registry ([`crate::env::registry`]), a `json:` PATH
+    /// relative to the sweep file.
     Task,
     /// The parameter `PARAMS[i]`.
     Param(usize),

@@ -159,8 +159,8 @@ impl NaiveRun {
         };
         let state = draw_initial_state(&spec, &mut rng);
         NaiveRun {
-            goal: spec.goal as usize,
-            goal_reward: spec.goal_reward,
+            goal: spec.goal_state().expect("a goal task") as usize,
+            goal_reward: spec.goal.expect("a goal task").reward,
             spec,
             params,
             arithmetic,
@@ -324,7 +324,7 @@ impl NaiveRun {
             }
             Event::Boxes(boxes) => {
                 self.spec = tidy::build_with(Variant::Task1, boxes);
-                self.goal = self.spec.goal as usize;
+                self.goal = self.spec.goal_state().expect("a goal task") as usize;
             }
             Event::Delete(pairs) => {
                 let spec = &self.spec;
@@ -346,8 +346,7 @@ impl NaiveRun {
                     spec.n_actions,
                     lists,
                     spec.initial_states.clone(),
-                    spec.goal,
-                    spec.goal_reward,
+                    spec.goal.expect("a goal task"),
                     spec.state_names.clone(),
                     spec.human.clone(),
                 );
