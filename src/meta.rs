@@ -96,15 +96,26 @@ pub fn pick(
 /// with argmax selection).
 #[inline(always)]
 pub fn by_values(inputs: &mut Inputs<'_>, with_cost: bool) -> Choice {
+    let (p_mb, (v_mf, v_mb), (bits_mf, bits_mb)) = values(inputs, with_cost);
+    let use_mb = pick(
+        inputs.params.selection,
+        p_mb,
+        v_mb.partial_cmp(&v_mf),
+        || inputs.uniform(),
+    );
+    inputs.choice(use_mb, p_mb, Some(if use_mb { bits_mb } else { bits_mf }))
+}
+
+/// What `ec` (`with_cost`) and `entropy` compute in one state before choosing: the softmax
+/// probability of MB, the two values of Eq. 6 (MF's, MB's) and the two entropies in bits.
+#[inline(always)]
+pub fn values(inputs: &mut Inputs<'_>, with_cost: bool) -> (f64, (f64, f64), (f64, f64)) {
     let (bits_mf, bits_mb) = (inputs.bits_mf(), inputs.bits_mb());
     let params = inputs.params;
     let (cost_mf, cost_mb, n) = (inputs.cost_mf, inputs.cost_mb, inputs.n_actions);
     let (v_mf, v_mb) = values_from_bits(params, with_cost, bits_mf, bits_mb, n, cost_mf, cost_mb);
     let p_mb = p_mb_softmax(v_mf, v_mb, params.tau);
-    let use_mb = pick(params.selection, p_mb, v_mb.partial_cmp(&v_mf), || {
-        inputs.uniform()
-    });
-    inputs.choice(use_mb, p_mb, Some(if use_mb { bits_mb } else { bits_mf }))
+    (p_mb, (v_mf, v_mb), (bits_mf, bits_mb))
 }
 
 #[cfg(test)]

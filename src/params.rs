@@ -108,6 +108,7 @@ names! {
     }
     RewardSource { Environment => "environment", Human => "human" }
     CongratulationEffect { Bias => "bias", Reward => "reward" }
+    Combine { Select => "select", Mix => "mix" }
     Profile (Kind::Profile) {
         None => "none",
         PaperCongratulation => "paper-congratulation",
@@ -129,6 +130,16 @@ pub enum Selection {
     Softmax,
     /// The better value, ties broken uniformly (the authors' code).
     Argmax,
+}
+
+/// How an arbiter's MB weight combines the experts (SPEC 12.1).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
+pub enum Combine {
+    /// One expert is drawn with P(MB) and acts alone (the paper's cost-saving frame).
+    Select,
+    /// Both experts infer; the action is drawn from the softmax of P(MB) Q_MB + (1 - P(MB)) Q_MF.
+    Mix,
 }
 
 /// How inference cost is measured (SPEC 6).
@@ -351,6 +362,35 @@ crate::env::registry::task_params!(registry::registry {
         "how a congratulation acts: bias (Eq. 8) or reward shaping (SPEC 11.3)";
     flag w_mb: f64 = 0.5, "P(MB) of the fixed controller" ("probability"),
         accepts "a weight in [0, 1]" if |x| (0.0..=1.0).contains(&x);
+    flag combine: Combine = Combine::Select,
+        "how the MB weight combines the experts: select (one acts) or mix (SPEC 12.1)",
+        help ". Ignored by mf, mb and vpi";
+    flag spe_threshold: f64 = 0.5, "reliability: |SPE| below it is the zero class" ("probability"),
+        accepts "a threshold in (0, 1]" if |x| x > 0.0 && x <= 1.0;
+    flag rel_memory: u32 = 10, "reliability: transitions whose SPE class is remembered" ("transitions"),
+        accepts "1 to 10000 transitions" if |n| (1..=10_000).contains(&n);
+    flag rel_eta: f64 = 0.1, "reliability: rate of the MF's mean |RPE| (Omega)",
+        accepts "a rate in (0, 1]" if |x| x > 0.0 && x <= 1.0;
+    flag rel_a_mf_mb: f64 = 1.2, "reliability: amplitude of the MF-to-MB rate",
+        accepts "a number >= 0, at most 1e12" if |x| (0.0..=MAGNITUDE_MAX).contains(&x);
+    flag rel_b_mf_mb: f64 = 10.0, "reliability: steepness of the MF-to-MB rate in chi_MF",
+        accepts "a number from -1e12 to 1e12" if |x| x.abs() <= MAGNITUDE_MAX;
+    flag rel_a_mb_mf: f64 = 1.0, "reliability: amplitude of the MB-to-MF rate",
+        accepts "a number >= 0, at most 1e12" if |x| (0.0..=MAGNITUDE_MAX).contains(&x);
+    flag rel_b_mb_mf: f64 = 2.0, "reliability: steepness of the MB-to-MF rate in chi_MB",
+        accepts "a number from -1e12 to 1e12" if |x| x.abs() <= MAGNITUDE_MAX;
+    flag rel_p0: f64 = 0.7, "reliability: P_MB at the start of a run" ("probability"),
+        accepts "a probability in [0, 1]" if |x| (0.0..=1.0).contains(&x);
+    flag kalman_v0: f64 = 1.0, "vpi: initial variance of the Kalman MF's values",
+        accepts "a variance > 0, at most 1e12" if |x| x > 0.0 && x <= MAGNITUDE_MAX;
+    flag kalman_eta: f64 = 1e-4, "vpi: relative variance growth per update (Kalman MF)",
+        accepts "a number >= 0, at most 1e12" if |x| (0.0..=MAGNITUDE_MAX).contains(&x);
+    flag kalman_noise: f64 = 0.05, "vpi: observation noise of the Kalman MF",
+        accepts "a variance > 0, at most 1e12" if |x| x > 0.0 && x <= MAGNITUDE_MAX;
+    flag rbar_rate: f64 = 0.02, "vpi: rate of the average reward",
+        accepts "a rate in [0, 1]" if |x| (0.0..=1.0).contains(&x);
+    flag vpi_tau: f64 = 0.08, "vpi: an action is planned when its VPI >= vpi_tau * average reward",
+        accepts "a number from -1e12 to 1e12" if |x| x.abs() <= MAGNITUDE_MAX;
 });
 
 /// Largest magnitude an action value or a run's total reward may reach. Inputs that could push

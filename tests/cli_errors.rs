@@ -212,7 +212,7 @@ const USAGE_ERRORS: &[(&str, &[&str])] = &[
         "run --controller ecc",
         &[
             "invalid value 'ecc' for '--controller",
-            "[possible values: mf, mb, rnd, ec, entropy, fixed]",
+            "[possible values: mf, mb, rnd, ec, entropy, fixed, reliability, vpi]",
             "a similar value exists: 'ec'",
         ],
     ),

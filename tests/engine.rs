@@ -553,7 +553,13 @@ fn the_first_decision_in_a_state_makes_both_experts_infer() {
             let chose_mb = (new.mb_decisions - old.mb_decisions) as f64;
             let c = controllers[r];
             let at = format!("{} at t = {}, state {s}", c.name(), batch.cursors()[r].t);
-            if !decided[r][s] && c.is_dual() {
+            if c == Controller::Vpi {
+                // SPEC 12.4: MF reads its row at every decision, MB infers when it values an
+                // action, and mb_decisions counts those decisions.
+                assert_eq!(mf, 1.0, "{at}: MF always infers");
+                assert_eq!(mb, chose_mb, "{at}: MB infers iff it values an action");
+                repeats[r] += 1;
+            } else if !decided[r][s] && c.is_dual() {
                 assert_eq!((mf, mb), (1.0, 1.0), "{at}: first decision, both infer");
                 firsts[r] += 1;
             } else {

@@ -17,7 +17,8 @@ use mbmf::batch::{Batch, RunConfig};
 use mbmf::env::tidy::Boxes;
 use mbmf::env::{self, Spec};
 use mbmf::params::{
-    CongratulationEffect, Controller, HumanParams, Interaction, Params, RewardSource, Selection,
+    Combine, CongratulationEffect, Controller, HumanParams, Interaction, Params, RewardSource,
+    Selection,
 };
 use mbmf::schedule::Schedule;
 use naive::{Arithmetic, NaiveRun};
@@ -382,6 +383,106 @@ fn fixed_weights_with_either_selection_match_the_naive_reference() {
         }
     }
     assert_parity(&spec, configs);
+}
+
+/// Every controller with `combine = mix` (ignored by mf, mb and vpi), with either selection
+/// (mix draws no expert, so selection changes nothing there), and with a congratulating and a
+/// taking-over human.
+fn mixed() -> Vec<Params> {
+    let mut params = Vec::new();
+    for selection in [Selection::Softmax, Selection::Argmax] {
+        for p in all_controllers(selection) {
+            params.push(Params {
+                combine: Combine::Mix,
+                ..p
+            });
+        }
+    }
+    for interaction in [Interaction::Congratulation, Interaction::Takeover] {
+        for controller in [Controller::Fixed, Controller::Ec, Controller::Reliability] {
+            params.push(Params {
+                combine: Combine::Mix,
+                w_mb: 0.3,
+                human: human(interaction, 50),
+                ..short(controller, Selection::Softmax)
+            });
+        }
+    }
+    params
+}
+
+#[test]
+fn combine_mix_matches_the_naive_reference_on_tidy1_and_a_json_world() {
+    let configs = runs(&mixed(), &[1, 2]);
+    let tidy1 = spec("tidy1");
+    assert_parity(&tidy1, configs.clone());
+    let json = spec(&format!("json:{TIDY1_FIXTURE}"));
+    // json worlds define no interaction: their runs are the ones without a human.
+    let alone: Vec<Params> = mixed()
+        .into_iter()
+        .filter(|p| p.human.interaction == Interaction::None)
+        .collect();
+    assert_parity(&json, runs(&alone, &[7]));
+
+    // Mixing draws no expert: mb_decisions counts weights above 1/2 (never for fixed at 0.3,
+    // every decision for reliability before P_MB falls, never for rnd's exact 1/2), and both
+    // experts pay their cost at every decision.
+    let mut batch = Batch::new(Arc::clone(&tidy1), configs.clone()).expect("valid configs");
+    batch.run_to_end();
+    for (r, config) in configs.iter().enumerate() {
+        let (p, stats) = (&config.params, &batch.stats()[r]);
+        match p.controller {
+            Controller::Rnd => {
+                assert_eq!(stats.mb_decisions, 0, "{}", describe(config));
+                assert_eq!(stats.p_mb_sum, 0.5 * stats.decisions as f64);
+            }
+            Controller::Fixed if p.w_mb < 0.5 => assert_eq!(stats.mb_decisions, 0),
+            Controller::Ec | Controller::Entropy | Controller::Fixed | Controller::Reliability => {
+                assert!(
+                    stats.cost_mf > 0.0 && stats.cost_mb > 0.0,
+                    "{}",
+                    describe(config)
+                );
+                // MB infers at every decision, babbling's included.
+                assert!(stats.vi_calls > stats.decisions, "{}", describe(config));
+            }
+            _ => {}
+        }
+    }
+}
+
+#[test]
+fn reliability_and_vpi_with_humans_and_argmax_match_the_naive_reference() {
+    let mut params = Vec::new();
+    for controller in [Controller::Reliability, Controller::Vpi] {
+        for interaction in [
+            Interaction::Congratulation,
+            Interaction::Takeover,
+            Interaction::Punishment,
+        ] {
+            params.push(Params {
+                human: human(interaction, 50),
+                ..short(controller, Selection::Softmax)
+            });
+        }
+        params.push(short(controller, Selection::Argmax));
+    }
+    // A reliability arbiter that stays MB-leaning, and a vpi that plans less.
+    params.push(Params {
+        rel_a_mf_mb: 5.0,
+        rel_b_mf_mb: -2.0,
+        rel_memory: 3,
+        spe_threshold: 0.2,
+        ..short(Controller::Reliability, Selection::Softmax)
+    });
+    params.push(Params {
+        vpi_tau: 2.0,
+        kalman_v0: 0.1,
+        q_init: 1.0,
+        ..short(Controller::Vpi, Selection::Softmax)
+    });
+    assert_parity(&spec("tidy1"), runs(&params, &[1, 2]));
+    assert_parity(&spec("tidy2"), runs(&params, &[3]));
 }
 
 #[test]

@@ -6,6 +6,13 @@ use super::{Arbiter, Choice, Inputs};
 pub struct Ec;
 
 impl Arbiter for Ec {
+    const COMBINES: bool = true;
+
+    #[inline(always)]
+    fn weight(inputs: &mut Inputs<'_>) -> f64 {
+        crate::meta::values(inputs, true).0
+    }
+
     #[inline(always)]
     fn choose(inputs: &mut Inputs<'_>) -> Choice {
         crate::meta::by_values(inputs, true)

@@ -8,6 +8,13 @@ use crate::meta::pick;
 pub struct Fixed;
 
 impl Arbiter for Fixed {
+    const COMBINES: bool = true;
+
+    #[inline(always)]
+    fn weight(inputs: &mut Inputs<'_>) -> f64 {
+        inputs.params.w_mb
+    }
+
     #[inline(always)]
     fn choose(inputs: &mut Inputs<'_>) -> Choice {
         let (p_mb, selection) = (inputs.params.w_mb, inputs.params.selection);

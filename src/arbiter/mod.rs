@@ -14,6 +14,7 @@ use std::ops::Range;
 
 use rand_xoshiro::Xoshiro256PlusPlus;
 
+use crate::expert::mb::Model;
 use crate::expert::{entropy_bits, normalise_bits};
 use crate::params::{Kind, ParamValue, Params, Value};
 use crate::rng::uniform;
@@ -57,6 +58,7 @@ pub struct Inputs<'a> {
     /// The rule's own state.
     pub own: Own<'a>,
     pub(crate) row: Range<usize>,
+    pub(crate) q_mf: &'a [f64],
     pub(crate) pavg_mf: &'a [f64],
     pub(crate) pavg_mb: &'a [f64],
     pub(crate) entropy_mf: &'a mut [f64],
@@ -65,6 +67,12 @@ pub struct Inputs<'a> {
 }
 
 impl Inputs<'_> {
+    /// The MF expert's Q row in the state. Only for a rule that runs MF.
+    #[inline(always)]
+    pub fn q_mf(&self) -> &[f64] {
+        &self.q_mf[self.row.clone()]
+    }
+
     /// Entropy in bits of the MF averaged distribution in the state (kept between decisions
     /// until the distribution changes). Only for a rule that runs MF: the batch may hold no MF
     /// tables otherwise.
@@ -132,6 +140,22 @@ pub struct Transition {
     pub next: usize,
     /// The arrival ends the episode.
     pub terminal: bool,
+    /// Actions of the task (the length of a Q row).
+    pub n_actions: usize,
+    /// The largest |reward| of the task (SPEC 12.3's R_max).
+    pub r_max: f64,
+}
+
+/// From which values the action of a decision is drawn (SPEC 12.1).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Draw {
+    /// The acting expert's softmax (`select`): [`Choice::use_mb`] says which.
+    Expert,
+    /// `combine = mix`: both experts infer; the softmax of P(MB) Q_MB + (1 - P(MB)) Q_MF.
+    Mix,
+    /// A vector the rule builds per action ([`Arbiter::action_values`]): MF always infers, MB
+    /// iff [`Choice::use_mb`] (SPEC 12.4).
+    PerAction,
 }
 
 /// An arbitration rule (SPEC 12.1). Only [`choose`](Arbiter::choose) is required; every other
@@ -146,6 +170,12 @@ pub trait Arbiter {
     const FIRST_DECISION_BOTH: bool = Self::RUNS_MF && Self::RUNS_MB;
     /// Whether [`observe`](Arbiter::observe) does anything (the step skips it otherwise).
     const OBSERVES: bool = false;
+    /// From which values the action is drawn.
+    const DRAW: Draw = Draw::Expert;
+    /// Whether `combine = mix` applies: the rule gives a weight ([`weight`](Arbiter::weight)).
+    const COMBINES: bool = false;
+    /// Whether [`learn_mf`](Arbiter::learn_mf) replaces the MF expert's Q-learning.
+    const LEARNS_MF: bool = false;
 
     /// Scalars the rule keeps per run (SPEC 12.3's P_MB), in [`Own::run`].
     fn run_scalars(_params: &Params) -> usize {
@@ -164,10 +194,41 @@ pub trait Arbiter {
     /// Step 3 of SPEC 3.4: which expert acts, and the MB weight reported.
     fn choose(inputs: &mut Inputs<'_>) -> Choice;
 
-    /// Sees every executed transition, of babbling too, before the experts learn from it
-    /// (SPEC 12.3), with the MF table as it is before learning.
+    /// P(MB) at a decision, without drawing an expert (`combine = mix`). Called only when
+    /// [`COMBINES`](Arbiter::COMBINES).
     #[inline(always)]
-    fn observe(_params: &Params, _own: &mut Own<'_>, _t: &Transition, _q_mf: &[f64]) {}
+    fn weight(inputs: &mut Inputs<'_>) -> f64 {
+        Self::choose(inputs).p_mb
+    }
+
+    /// Sees every executed transition, of babbling too, before the experts learn from it
+    /// (SPEC 12.3), with the MF table and the MB model as they are before learning.
+    #[inline(always)]
+    fn observe(
+        _params: &Params,
+        _own: &mut Own<'_>,
+        _t: &Transition,
+        _q_mf: &[f64],
+        _model: &Model<'_>,
+    ) {
+    }
+
+    /// The MF expert's learning from `t` in place of Q-learning (SPEC 12.4's Kalman MF), when
+    /// [`LEARNS_MF`](Arbiter::LEARNS_MF).
+    #[inline(always)]
+    fn learn_mf(_params: &Params, _own: &mut Own<'_>, _t: &Transition, _q_mf: &mut [f64]) {}
+
+    /// With [`Draw::PerAction`]: writes into `out` the value of each action in `state`, from
+    /// the experts' rows there (`q_mb` is current only when the decision made MB infer).
+    #[inline(always)]
+    fn action_values(
+        _own: &Own<'_>,
+        _state: usize,
+        _q_mf: &[f64],
+        _q_mb: &[f64],
+        _out: &mut [f64],
+    ) {
+    }
 }
 
 /// Code generic over the rule, called by [`dispatch`] with the run's.
@@ -259,7 +320,12 @@ arbiters! {
     Ec => "ec", ec::Ec, "Entropy and cost (Eqs. 6–7): the paper's coordination.";
     Entropy => "entropy", entropy::Entropy, "Eq. 6 without the cost term.";
     Fixed => "fixed", fixed::Fixed, "MB with the constant probability w_mb (SPEC 12.2).";
+    Reliability => "reliability", reliability::Reliability, "Lee et al. 2014's reliability arbitration (SPEC 12.3).";
+    Vpi => "vpi", vpi::Vpi, "Keramati et al. 2011's value of information, per action (SPEC 12.4).";
 }
+
+mod mix;
+pub use mix::Mixed;
 
 /// Start of every rule's state in one run: declared sizes zeroed, then the rule's own start.
 pub fn start(controller: Controller, params: &Params, own: &mut Own<'_>) {

@@ -6,6 +6,13 @@ use super::{Arbiter, Choice, Inputs};
 pub struct Rnd;
 
 impl Arbiter for Rnd {
+    const COMBINES: bool = true;
+
+    #[inline(always)]
+    fn weight(_inputs: &mut Inputs<'_>) -> f64 {
+        0.5
+    }
+
     #[inline(always)]
     fn choose(inputs: &mut Inputs<'_>) -> Choice {
         let use_mb = inputs.uniform() < 0.5;

@@ -14,12 +14,12 @@ use std::time::Instant;
 
 use super::settled::{Expert, Fold};
 use super::{Checkpoint, RunView, Settled, initial_state, uniform};
-use crate::arbiter::{self, Arbiter, Inputs, Own, Transition, Visit};
+use crate::arbiter::{self, Arbiter, Draw, Inputs, Mixed, Own, Transition, Visit};
 use crate::env::{Chance, End, Spec};
-use crate::expert::{draw, ema, max_of, mf};
+use crate::expert::{draw, ema, entropy_bits, max_of, mf, normalise_bits, softmax_biased};
 use crate::human::{self, Encounter};
 use crate::params::{
-    CongratulationEffect, CostModel, HumanParams, Interaction, Params, RewardSource,
+    Combine, CongratulationEffect, CostModel, HumanParams, Interaction, Params, RewardSource,
 };
 use crate::schedule::{Action, HumanChange, Plan};
 
@@ -65,8 +65,21 @@ impl Visit for Loop<'_, '_> {
     /// The loop for rule `A`, the human mode and the action count. The tidy tasks' 7 actions
     /// get their own copy, whose rows have a length known at compile time (loops unrolled, no
     /// remainder handling); other action counts share a generic one (`NA` 0: read from the spec).
+    /// A rule that gives a weight runs as [`Mixed`] under `combine = mix`; others ignore it.
     #[inline(always)]
     fn visit<A: Arbiter>(self) {
+        if A::COMBINES && self.params.combine == Combine::Mix {
+            self.loops::<Mixed<A>>();
+        } else {
+            self.loops::<A>();
+        }
+    }
+}
+
+impl Loop<'_, '_> {
+    /// [`Visit::visit`] once the rule's type is final.
+    #[inline(always)]
+    fn loops<A: Arbiter>(self) {
         let Loop {
             spec,
             params: p,
@@ -252,21 +265,33 @@ fn act<A: Arbiter, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
     // 8. Learning, by every expert the rule runs (after the rule has seen the transition). The arrival is
     // terminal when the world at this time says so (SPEC 10): both experts learn that from the transition itself.
     run.cursor.pending_reset = reset;
+    let t = Transition {
+        s,
+        a,
+        r: learned,
+        next,
+        terminal,
+        n_actions: n_a,
+        r_max: spec.max_abs_reward(),
+    };
     if A::OBSERVES {
-        let t = Transition {
-            s,
-            a,
-            r: learned,
-            next,
-            terminal,
-        };
         let mut own = Own {
             run: run.arbiter_run,
             pairs: run.arbiter_pairs,
         };
-        A::observe(params, &mut own, &t, run.q_mf);
+        A::observe(params, &mut own, &t, run.q_mf, &run.model);
     }
-    if A::RUNS_MF {
+    if A::LEARNS_MF {
+        let before = run.q_mf[sa];
+        let mut own = Own {
+            run: run.arbiter_run,
+            pairs: run.arbiter_pairs,
+        };
+        A::learn_mf(params, &mut own, &t, run.q_mf);
+        if !HUMAN && run.q_mf[sa].to_bits() != before.to_bits() {
+            run.settled[s].q_changed(Expert::Mf);
+        }
+    } else if A::RUNS_MF {
         // An `mf` run without a human keeps each Q row's maximum; other runs read the row.
         let future = match (mf_alone::<A>() && !HUMAN, terminal) {
             (_, true) => 0.0,
@@ -365,22 +390,25 @@ fn decide<A: Arbiter, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
             pairs: run.arbiter_pairs,
         },
         row: row.clone(),
+        q_mf: run.q_mf,
         pavg_mf: run.pavg_mf,
         pavg_mb: run.pavg_mb,
         entropy_mf: run.entropy_mf,
         entropy_mb: run.entropy_mb,
         rng: run.rng,
     };
-    let choice = A::choose(&mut inputs);
+    let mut choice = A::choose(&mut inputs);
 
     // 4. Inference: the chosen expert, and both at a first decision of a two-expert controller.
     let first = !run.visited[s];
     run.visited[s] = true;
-    let both = first && A::FIRST_DECISION_BOTH;
+    // Mix: both experts infer at every decision; per action: MF always, MB when asked.
+    let both = (first && A::FIRST_DECISION_BOTH) || A::DRAW == Draw::Mix;
+    let mf_infers = !choice.use_mb || both || A::DRAW == Draw::PerAction;
     let wallclock = params.cost_model == CostModel::Wallclock;
     let mut cost_mf = 0.0;
     let mut cost_mb = 0.0;
-    if A::RUNS_MF && (!choice.use_mb || both) {
+    if A::RUNS_MF && mf_infers {
         let started = wallclock.then(Instant::now);
         // MF inference is reading its row, which the softmax below does.
         std::hint::black_box(&run.q_mf[row.clone()]);
@@ -445,7 +473,7 @@ fn decide<A: Arbiter, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
     if A::RUNS_MF {
         let fold = Fold {
             expert: Expert::Mf,
-            drawn: !choice.use_mb,
+            drawn: A::DRAW == Draw::Expert && !choice.use_mb,
             kept: keeps_softmax,
             q: &run.q_mf[row.clone()],
             g,
@@ -463,7 +491,7 @@ fn decide<A: Arbiter, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
     if A::RUNS_MB {
         let fold = Fold {
             expert: Expert::Mb,
-            drawn: choice.use_mb,
+            drawn: A::DRAW == Draw::Expert && choice.use_mb,
             kept: false,
             q: &run.q_mb[row.clone()],
             g,
@@ -478,7 +506,29 @@ fn decide<A: Arbiter, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
             &mut run.entropy_mb[s],
         );
     }
-    let a = draw(if choice.use_mb { p_mb } else { p_mf }, uniform(run.rng));
+    let a = if A::DRAW == Draw::Expert {
+        draw(if choice.use_mb { p_mb } else { p_mf }, uniform(run.rng))
+    } else {
+        // The experts' softmaxes are folded: their scratch space holds the values the action
+        // is drawn from, then their softmax (with the Eq. 8 bonus).
+        let (q_mf, q_mb) = (&run.q_mf[row.clone()], &run.q_mb[row.clone()]);
+        let (p, values) = run.scratch.split_at_mut(n_a);
+        if A::DRAW == Draw::Mix {
+            let w = choice.p_mb;
+            for ((v, &mb), &mf) in values.iter_mut().zip(q_mb).zip(q_mf) {
+                *v = w * mb + (1.0 - w) * mf;
+            }
+        } else {
+            let own = Own {
+                run: run.arbiter_run,
+                pairs: run.arbiter_pairs,
+            };
+            A::action_values(&own, s, q_mf, q_mb, values);
+        }
+        softmax_biased(values, g, bonus, tau, p);
+        choice.chosen_entropy = normalise_bits(entropy_bits(p), n_a);
+        draw(p, uniform(run.rng))
+    };
 
     if !babbling {
         let stats = &mut *run.stats;

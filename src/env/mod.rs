@@ -138,6 +138,9 @@ pub struct Spec {
     /// this byte and the arrival only where it is set (most outcomes bring nothing); set with
     /// the arrivals by [`with_arrivals`](Spec::with_arrivals).
     pub eventful: Vec<bool>,
+    /// The largest reward magnitude any arrival can bring, kept with the arrivals so that a
+    /// rule reading it at every step (`reliability`'s R_max, SPEC 12.3) does not scan them.
+    max_abs_reward: f64,
     /// The goal of a task with one rewarded, terminal state (tidy, `grid:`, `json:`), from which
     /// [`arrival`](Spec::arrival) was built; `None` for a task whose outcomes say it themselves.
     pub goal: Option<Goal>,
@@ -200,10 +203,7 @@ impl Spec {
 
     /// The largest reward magnitude any arrival can bring (what value bounds are computed from).
     pub fn max_abs_reward(&self) -> f64 {
-        self.arrival
-            .iter()
-            .map(|a| a.reward.abs())
-            .fold(0.0, f64::max)
+        self.max_abs_reward
     }
 
     /// This world with its goal moved to `goal` (SPEC 10): every arrival in `goal.state` is
@@ -224,6 +224,7 @@ impl Spec {
             "one arrival per outcome"
         );
         self.eventful = arrivals.iter().map(|&a| a != Arrival::NOTHING).collect();
+        self.max_abs_reward = largest_reward(&arrivals);
         self.arrival = arrivals;
         self.goal = None;
         self
@@ -275,6 +276,7 @@ impl Spec {
         }
         let arrival = goal_arrivals(&outcome_state, goal);
         let eventful = arrival.iter().map(|&a| a != Arrival::NOTHING).collect();
+        let max_abs_reward = largest_reward(&arrival);
         Spec {
             name,
             n_states,
@@ -286,11 +288,17 @@ impl Spec {
             initial_states,
             arrival,
             eventful,
+            max_abs_reward,
             goal: Some(goal),
             state_names,
             human,
         }
     }
+}
+
+/// The largest reward magnitude of `arrivals`.
+fn largest_reward(arrivals: &[Arrival]) -> f64 {
+    arrivals.iter().map(|a| a.reward.abs()).fold(0.0, f64::max)
 }
 
 /// The arrivals of a goal task: the goal's reward and the reset step for every outcome arriving

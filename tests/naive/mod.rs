@@ -37,8 +37,8 @@ use mbmf::batch::{Checkpoint, RunStats, run_rng, uniform};
 use mbmf::env::tidy::{self, Variant};
 use mbmf::env::{NO_NUISANCE, NO_TAKEOVER, Spec};
 use mbmf::params::{
-    CongratulationEffect, Controller, CostModel, HumanParams, Interaction, Params, RewardSource,
-    Selection,
+    Combine, CongratulationEffect, Controller, CostModel, HumanParams, Interaction, Params,
+    RewardSource, Selection,
 };
 use mbmf::schedule::{Change, Event, HumanChange, Schedule};
 use rand_xoshiro::Xoshiro256PlusPlus;
@@ -113,6 +113,14 @@ pub struct NaiveRun {
     window_p_mb: f64,
     /// Decisions since the last checkpoint.
     window_decisions: u32,
+    /// SPEC 12.3: the run's P_MB, the MF's mean |RPE| (Omega) and the SPE classes of the last
+    /// `rel_memory` transitions, oldest first (0 zero, 1 positive, 2 negative).
+    rel_p_mb: f64,
+    rel_omega: f64,
+    rel_classes: VecDeque<usize>,
+    /// SPEC 12.4: the Kalman MF's variances `var_mf[s][a]` and the average reward.
+    var_mf: Vec<Vec<f64>>,
+    rbar: f64,
 }
 
 impl NaiveRun {
@@ -188,6 +196,11 @@ impl NaiveRun {
             series: Vec::new(),
             window_p_mb: 0.0,
             window_decisions: 0,
+            rel_p_mb: params.rel_p0,
+            rel_omega: 0.0,
+            rel_classes: VecDeque::new(),
+            var_mf: vec![vec![params.kalman_v0; n_a]; n_s],
+            rbar: 0.0,
         }
     }
 
@@ -471,7 +484,18 @@ impl NaiveRun {
         // 8. Learning. The arrival is terminal when it is the goal at this time (SPEC 10).
         let terminal = at_goal;
         self.arrived_at_goal = terminal;
-        if self.runs_mf() {
+        // SPEC 12.3 and 12.4: the arbiter sees the transition before the experts learn it.
+        match self.params.controller {
+            Controller::Reliability => self.reliability_update(s, a, learned, next, terminal),
+            Controller::Vpi => {
+                let rate = self.params.rbar_rate;
+                self.rbar = (1.0 - rate) * self.rbar + rate * learned;
+            }
+            _ => {}
+        }
+        if self.params.controller == Controller::Vpi {
+            self.kalman_learn(s, a, learned, next, terminal);
+        } else if self.runs_mf() {
             self.mf_learn(s, a, learned, next, terminal);
         }
         if self.runs_mb() {
@@ -500,22 +524,36 @@ impl NaiveRun {
     fn decide(&mut self, s: usize, babbling: bool) -> usize {
         let n_a = self.spec.n_actions;
 
-        // 3. The MC chooses from what earlier visits stored.
-        let (use_mb, p_mb) = self.choose_expert(s);
-        let chosen_entropy = normalised_entropy(if use_mb {
+        // 3. The MC chooses from what earlier visits stored. With `combine = mix` (SPEC 12.1) it
+        // only weighs the experts (no draw); `vpi` (12.4) values each action by one expert.
+        let mix = self.mixes();
+        let vpi = self.params.controller == Controller::Vpi;
+        let mut by_mb = vec![false; n_a];
+        let (use_mb, p_mb) = if vpi {
+            by_mb = self.vpi_planned(s);
+            let planned = by_mb.iter().filter(|&&b| b).count();
+            (planned > 0, planned as f64 / n_a as f64)
+        } else if mix {
+            let w = self.mb_weight(s);
+            (w > 0.5, w)
+        } else {
+            self.choose_expert(s)
+        };
+        let mut chosen_entropy = normalised_entropy(if use_mb {
             &self.avg_p_mb[s]
         } else {
             &self.avg_p_mf[s]
         });
 
-        // 4. Inference: the chosen expert; both at a two-expert controller's first decision in s.
+        // 4. Inference: the chosen expert; both at a two-expert controller's first decision in s
+        // and at every decision with mix; with vpi, MF always and MB when it values an action.
         let first_decision_here = !self.decided_in[s];
         self.decided_in[s] = true;
-        let both = first_decision_here && self.two_experts();
+        let both = (first_decision_here && self.two_experts()) || mix;
         let alpha = self.params.filter_alpha;
         let mut cost_mf = 0.0;
         let mut cost_mb = 0.0;
-        if self.runs_mf() && (!use_mb || both) {
+        if self.runs_mf() && (!use_mb || both || vpi) {
             cost_mf = n_a as f64; // reads the row Q(s, .) (SPEC 6)
             self.avg_cost_mf[s] = ema(self.avg_cost_mf[s], cost_mf, alpha);
         }
@@ -540,7 +578,24 @@ impl NaiveRun {
             }
         }
         let u = uniform(&mut self.rng);
-        let a = draw_index(if use_mb { &p_mb_dist } else { &p_mf }, u);
+        let a = if mix || vpi {
+            let values: Vec<f64> = (0..n_a)
+                .map(|b| {
+                    if mix {
+                        p_mb * self.q_mb[s][b] + (1.0 - p_mb) * self.q_mf[s][b]
+                    } else if by_mb[b] {
+                        self.q_mb[s][b]
+                    } else {
+                        self.q_mf[s][b]
+                    }
+                })
+                .collect();
+            let p = self.policy(&values, s);
+            chosen_entropy = normalised_entropy(&p);
+            draw_index(&p, u)
+        } else {
+            draw_index(if use_mb { &p_mb_dist } else { &p_mf }, u)
+        };
 
         if !babbling {
             self.stats.cost_mf += cost_mf;
@@ -573,14 +628,20 @@ impl NaiveRun {
                 };
                 (use_mb, w)
             }
+            // SPEC 12.3: the run's P_MB, drawn or compared with 1/2 like fixed's weight.
+            Controller::Reliability => {
+                let w = self.rel_p_mb;
+                let use_mb = match self.params.selection {
+                    Selection::Softmax => uniform(&mut self.rng) < w,
+                    Selection::Argmax if w == 0.5 => uniform(&mut self.rng) < 0.5,
+                    Selection::Argmax => w > 0.5,
+                };
+                (use_mb, w)
+            }
+            Controller::Vpi => unreachable!("vpi values each action (vpi_planned)"),
             Controller::Ec | Controller::Entropy => {
                 let (v_mf, v_mb) = self.expert_values(s);
-                let z = (v_mf - v_mb) / self.params.tau;
-                let p_mb = match self.arithmetic {
-                    Arithmetic::Spec => 1.0 / (1.0 + z.exp()),
-                    Arithmetic::Engine if z > 0.0 => (-z).exp() / (1.0 + (-z).exp()),
-                    Arithmetic::Engine => 1.0 / (1.0 + z.exp()),
-                };
+                let p_mb = self.ec_p_mb(v_mf, v_mb);
                 let use_mb = match self.params.selection {
                     Selection::Softmax => uniform(&mut self.rng) < p_mb,
                     Selection::Argmax => {
@@ -596,6 +657,123 @@ impl NaiveRun {
                 (use_mb, p_mb)
             }
         }
+    }
+
+    /// P(MB) of Eq. 6's two values.
+    fn ec_p_mb(&self, v_mf: f64, v_mb: f64) -> f64 {
+        let z = (v_mf - v_mb) / self.params.tau;
+        match self.arithmetic {
+            Arithmetic::Spec => 1.0 / (1.0 + z.exp()),
+            Arithmetic::Engine if z > 0.0 => (-z).exp() / (1.0 + (-z).exp()),
+            Arithmetic::Engine => 1.0 / (1.0 + z.exp()),
+        }
+    }
+
+    /// SPEC 12.1, `combine = mix`: the controller's P(MB), without any draw.
+    fn mb_weight(&self, s: usize) -> f64 {
+        match self.params.controller {
+            Controller::Rnd => 0.5,
+            Controller::Fixed => self.params.w_mb,
+            Controller::Reliability => self.rel_p_mb,
+            Controller::Ec | Controller::Entropy => {
+                let (v_mf, v_mb) = self.expert_values(s);
+                self.ec_p_mb(v_mf, v_mb)
+            }
+            Controller::Mf | Controller::Mb | Controller::Vpi => unreachable!("not mixed"),
+        }
+    }
+
+    /// Whether this run mixes the experts: `combine = mix` for a controller with a weight
+    /// (it does not apply to mf, mb, vpi).
+    fn mixes(&self) -> bool {
+        self.params.combine == Combine::Mix
+            && !matches!(
+                self.params.controller,
+                Controller::Mf | Controller::Mb | Controller::Vpi
+            )
+    }
+
+    /// SPEC 12.4: which actions of s take MB's value (VPI >= vpi_tau * Rbar).
+    fn vpi_planned(&self, s: usize) -> Vec<bool> {
+        let q = &self.q_mf[s];
+        let n = q.len();
+        let threshold = self.params.vpi_tau * self.rbar;
+        if n < 2 {
+            return vec![0.0 >= threshold; n];
+        }
+        // a1 the best mean, a2 the second; ties by the lower index.
+        let mut order: Vec<usize> = (0..n).collect();
+        order.sort_by(|&x, &y| q[y].partial_cmp(&q[x]).unwrap().then(x.cmp(&y)));
+        let (a1, a2) = (order[0], order[1]);
+        (0..n)
+            .map(|a| {
+                let sigma = self.var_mf[s][a].sqrt();
+                let value = if sigma == 0.0 {
+                    0.0 // the limit: a certain value brings no information
+                } else if a == a1 {
+                    let x = (q[a2] - q[a1]) / sigma;
+                    (q[a2] - q[a1]) * phi_cdf(x) + sigma * phi_pdf(x)
+                } else {
+                    let x = (q[a1] - q[a]) / sigma;
+                    (q[a] - q[a1]) * (1.0 - phi_cdf(x)) + sigma * phi_pdf(x)
+                };
+                value >= threshold
+            })
+            .collect()
+    }
+
+    /// SPEC 12.3: SPE and RPE on the tables before learning, then the class memory, Omega and
+    /// P_MB.
+    fn reliability_update(&mut self, s: usize, a: usize, r: f64, next: usize, terminal: bool) {
+        let p = &self.params;
+        let spe = 1.0 - self.transition(s, a, next);
+        let future = if terminal { 0.0 } else { max(&self.q_mf[next]) };
+        let rpe = r + p.gamma_mf * future - self.q_mf[s][a];
+        let class = if spe.abs() < p.spe_threshold {
+            0
+        } else if spe >= p.spe_threshold {
+            1
+        } else {
+            2
+        };
+        self.rel_classes.push_back(class);
+        if self.rel_classes.len() > p.rel_memory as usize {
+            self.rel_classes.pop_front();
+        }
+        let big_k = 3.0;
+        let n = self.rel_classes.len() as f64;
+        let ratio = |k: usize| {
+            let n_k = self.rel_classes.iter().filter(|&&c| c == k).count() as f64;
+            let mean = (1.0 + n_k) / (big_k + n);
+            let var = (1.0 + n_k) * (big_k + n - 1.0 - n_k)
+                / ((big_k + n) * (big_k + n) * (big_k + n + 1.0));
+            mean / var
+        };
+        let chi_mb = ratio(0) / (ratio(0) + ratio(1) + ratio(2));
+        self.rel_omega += p.rel_eta * (rpe.abs() - self.rel_omega);
+        let r_max = self.spec.max_abs_reward();
+        let chi_mf = if r_max > 0.0 {
+            ((r_max - self.rel_omega) / r_max).clamp(0.0, 1.0)
+        } else {
+            1.0
+        };
+        let alpha = p.rel_a_mf_mb / (1.0 + (p.rel_b_mf_mb * chi_mf).exp());
+        let beta = p.rel_a_mb_mf / (1.0 + (p.rel_b_mb_mf * chi_mb).exp());
+        if alpha + beta > 0.0 {
+            let p_inf = alpha / (alpha + beta);
+            self.rel_p_mb = p_inf + (self.rel_p_mb - p_inf) * (-0.1 * (alpha + beta)).exp();
+        }
+    }
+
+    /// SPEC 12.4's Kalman MF in place of Eq. 4.
+    fn kalman_learn(&mut self, s: usize, a: usize, r: f64, next: usize, terminal: bool) {
+        let p = &self.params;
+        let future = if terminal { 0.0 } else { max(&self.q_mf[next]) };
+        let v = self.var_mf[s][a] * (1.0 + p.kalman_eta);
+        let y = r + p.gamma_mf * future;
+        let k = v / (v + p.kalman_noise);
+        self.q_mf[s][a] += k * (y - self.q_mf[s][a]);
+        self.var_mf[s][a] = (1.0 - k) * v;
     }
 
     /// Eqs. 6–7: (value of MF, value of MB) in state s.
@@ -780,7 +958,11 @@ impl NaiveRun {
     fn two_experts(&self) -> bool {
         matches!(
             self.params.controller,
-            Controller::Rnd | Controller::Ec | Controller::Entropy | Controller::Fixed
+            Controller::Rnd
+                | Controller::Ec
+                | Controller::Entropy
+                | Controller::Fixed
+                | Controller::Reliability
         )
     }
 
@@ -884,6 +1066,17 @@ pub fn draw_index(p: &[f64], u: f64) -> usize {
         }
     }
     last_positive
+}
+
+/// The standard normal CDF, 0.5 erfc(-x / sqrt 2) with the crate's erfc (a contract, like the
+/// random stream: a different erfc would differ in the last bits).
+fn phi_cdf(x: f64) -> f64 {
+    mbmf::analysis::stats::normal_cdf(x)
+}
+
+/// The standard normal density.
+fn phi_pdf(x: f64) -> f64 {
+    (-0.5 * x * x).exp() / (2.0 * std::f64::consts::PI).sqrt()
 }
 
 fn max(row: &[f64]) -> f64 {

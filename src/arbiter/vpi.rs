@@ -1,0 +1,197 @@
+//! `vpi` (SPEC 12.4, Keramati, Dezfouli & Piray 2011): a Kalman MF, and per action MB's value
+//! when the value of perfect information about the action exceeds the cost of the time to get
+//! it (`vpi_tau` times the average reward).
+
+use std::f64::consts::PI;
+
+use super::{Arbiter, Choice, Draw, Inputs, Model, Own, Transition};
+use crate::analysis::stats::normal_cdf;
+use crate::expert::mf;
+use crate::params::Params;
+
+/// The run's average reward, its one scalar.
+const RBAR: usize = 0;
+
+/// Value of information, per action.
+pub struct Vpi;
+
+/// The standard normal density.
+fn normal_pdf(z: f64) -> f64 {
+    (-0.5 * z * z).exp() / (2.0 * PI).sqrt()
+}
+
+/// VPI of every action (SPEC 12.4) from the MF means `q` and variances `var` of one state,
+/// written into `out`. a1 is the best mean, a2 the second (ties by the lower action index). At
+/// sigma = 0 a VPI is its limit, 0 (a certain value brings no information). With a single
+/// action there is no alternative to learn about: 0.
+pub fn vpi(q: &[f64], var: &[f64], out: &mut [f64]) {
+    let n = q.len();
+    if n < 2 {
+        out.fill(0.0);
+        return;
+    }
+    let mut a1 = 0;
+    for a in 1..n {
+        if q[a] > q[a1] {
+            a1 = a;
+        }
+    }
+    let mut a2 = usize::from(a1 == 0);
+    for a in 0..n {
+        if a != a1 && q[a] > q[a2] {
+            a2 = a;
+        }
+    }
+    for a in 0..n {
+        let sigma = var[a].sqrt();
+        out[a] = if sigma == 0.0 {
+            0.0
+        } else if a == a1 {
+            let d = q[a2] - q[a1];
+            d * normal_cdf(d / sigma) + sigma * normal_pdf(d / sigma)
+        } else {
+            let z = (q[a1] - q[a]) / sigma;
+            (q[a] - q[a1]) * (1.0 - normal_cdf(z)) + sigma * normal_pdf(z)
+        };
+    }
+}
+
+/// One Kalman update of a mean `q` and variance `v` towards the target `y` (SPEC 12.4):
+/// V grows by `kalman_eta`, then K = V / (V + noise), Q += K (y - Q), V = (1 - K) V.
+pub fn kalman(params: &Params, q: &mut f64, v: &mut f64, y: f64) {
+    let grown = *v * (1.0 + params.kalman_eta);
+    let k = grown / (grown + params.kalman_noise);
+    *q += k * (y - *q);
+    *v = (1.0 - k) * grown;
+}
+
+/// The state's block of the run's pair tables: its variances, then its MB flags, one per
+/// action (a state's rows side by side, so a rule that knows only the action count finds them).
+#[inline(always)]
+fn block(n_actions: usize, state: usize) -> std::ops::Range<usize> {
+    2 * state * n_actions..2 * (state + 1) * n_actions
+}
+
+impl Arbiter for Vpi {
+    /// MB infers only when an action takes its value, the first decision in a state included.
+    const FIRST_DECISION_BOTH: bool = false;
+    const OBSERVES: bool = true;
+    const DRAW: Draw = Draw::PerAction;
+    const LEARNS_MF: bool = true;
+
+    fn run_scalars(_params: &Params) -> usize {
+        1
+    }
+
+    fn pair_tables(_params: &Params) -> usize {
+        2
+    }
+
+    /// Every variance starts at `kalman_v0`. (The flags share the fill: each decision writes
+    /// its state's before reading them.)
+    fn start(params: &Params, own: &mut Own<'_>) {
+        own.pairs.fill(params.kalman_v0);
+    }
+
+    #[inline(always)]
+    fn choose(inputs: &mut Inputs<'_>) -> Choice {
+        let n = inputs.n_actions;
+        let threshold = inputs.params.vpi_tau * inputs.own.run[RBAR];
+        let (var, flags) = inputs.own.pairs[block(n, inputs.state)].split_at_mut(n);
+        vpi(&inputs.q_mf[inputs.row.clone()], var, flags);
+        let mut planned = 0usize;
+        for f in flags.iter_mut() {
+            let by_mb = *f >= threshold;
+            planned += usize::from(by_mb);
+            *f = if by_mb { 1.0 } else { 0.0 };
+        }
+        Choice {
+            use_mb: planned > 0,
+            p_mb: planned as f64 / n as f64,
+            chosen_entropy: f64::NAN,
+        }
+    }
+
+    #[inline(always)]
+    fn action_values(own: &Own<'_>, state: usize, q_mf: &[f64], q_mb: &[f64], out: &mut [f64]) {
+        let n = q_mf.len();
+        let flags = &own.pairs[block(n, state)][n..];
+        for a in 0..n {
+            out[a] = if flags[a] != 0.0 { q_mb[a] } else { q_mf[a] };
+        }
+    }
+
+    #[inline(always)]
+    fn observe(params: &Params, own: &mut Own<'_>, t: &Transition, _q_mf: &[f64], _model: &Model<'_>) {
+        let rate = params.rbar_rate;
+        own.run[RBAR] = (1.0 - rate) * own.run[RBAR] + rate * t.r;
+    }
+
+    #[inline(always)]
+    fn learn_mf(params: &Params, own: &mut Own<'_>, t: &Transition, q_mf: &mut [f64]) {
+        let n = t.n_actions;
+        let y = t.r + params.gamma_mf * mf::future(q_mf, n, t.next, t.terminal);
+        let v = &mut own.pairs[block(n, t.s).start + t.a];
+        kalman(params, &mut q_mf[t.s * n + t.a], v, y);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Expected values from python: Phi(z) = 0.5 * math.erfc(-z / sqrt(2)), phi(z) =
+    /// exp(-z^2 / 2) / sqrt(2 pi), and SPEC 12.4's two formulas.
+    fn check(q: &[f64], var: &[f64], expected: &[f64]) {
+        let mut out = vec![f64::NAN; q.len()];
+        vpi(q, var, &mut out);
+        for (a, (&got, &want)) in out.iter().zip(expected).enumerate() {
+            assert!(
+                (got - want).abs() <= 1e-14 + 1e-12 * want.abs(),
+                "VPI({a}) of {q:?}, {var:?}: {got} vs {want}"
+            );
+        }
+    }
+
+    #[test]
+    fn vpi_matches_the_normal_cdf_and_density() {
+        // a1 = 0, a2 = 1. VPI(a1) = -0.5 Phi(-0.5) + phi(-0.5); VPI(1) = -0.5 (1 - Phi(1)) + 0.5
+        // phi(1); VPI(2) = -1 (1 - Phi(5)) + 0.2 phi(5).
+        check(
+            &[1.0, 0.5, 0.0],
+            &[1.0, 0.25, 0.04],
+            &[0.197_796_557_401_306_08, 0.041_657_735_293_843_146, 1.069_233_102_332_441_2e-8],
+        );
+    }
+
+    #[test]
+    fn vpi_of_ties_and_zero_variance() {
+        // Tied best: a1 = 0 (lower index), a2 = 1: VPI = sigma phi(0) = sigma / sqrt(2 pi).
+        // Action 2 has variance 0: its limit, 0.
+        check(
+            &[0.3, 0.3, 0.1],
+            &[0.01, 1.0, 0.0],
+            &[0.039_894_228_040_143_274, 0.398_942_280_401_432_7, 0.0],
+        );
+        // Certain values: no information to gain anywhere; a single action neither.
+        check(&[0.2, 0.0], &[0.0, 0.0], &[0.0, 0.0]);
+        check(&[0.2], &[1.0], &[0.0]);
+    }
+
+    #[test]
+    fn kalman_update_by_hand() {
+        // V = 1 * (1 + 1e-4) = 1.0001; K = 1.0001 / 1.0501 = 0.952385...; Q = 0 + K (1 - 0);
+        // V = (1 - K) 1.0001 = 0.05 * 1.0001 / 1.0501.
+        let params = Params::default();
+        let (mut q, mut v) = (0.0, 1.0);
+        kalman(&params, &mut q, &mut v, 1.0);
+        assert!((q - 1.0001 / 1.0501).abs() < 1e-15, "{q}");
+        assert!((v - 0.05 * 1.0001 / 1.0501).abs() < 1e-15, "{v}");
+        // The gain shrinks as the variance does: a second identical target moves Q less.
+        let before = q;
+        kalman(&params, &mut q, &mut v, 2.0);
+        let k2 = (0.05 * 1.0001 / 1.0501 * 1.0001) / (0.05 * 1.0001 / 1.0501 * 1.0001 + 0.05);
+        assert!((q - (before + k2 * (2.0 - before))).abs() < 1e-15);
+        assert!(k2 < 0.5);
+    }
+}
