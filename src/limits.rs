@@ -56,6 +56,43 @@ pub fn probing() -> bool {
 
 /// Whether `bytes` of address space can be had now: reserved and released at once, nothing
 /// touched. Under `ulimit -v` this fails as the allocation itself would.
+///
+/// On Unix the probe maps and unmaps the memory itself, as the allocator maps a large block,
+/// rather than allocating and freeing it through the allocator: glibc's malloc takes the free
+/// of a mapped block as a hint to raise its mapping threshold to that size, after which the
+/// batch's tables (allocated zeroed) would come from reused heap memory that `calloc` has to
+/// clear, instead of fresh zero pages.
+#[cfg(unix)]
+pub fn can_reserve(bytes: u64) -> bool {
+    let Ok(len) = usize::try_from(bytes) else {
+        return false;
+    };
+    if len == 0 {
+        return true;
+    }
+    // SAFETY: an anonymous private mapping at an address of the kernel's choosing aliases
+    // nothing; it is never read or written, and unmapped at once with the length it was made
+    // with.
+    unsafe {
+        let p = libc::mmap(
+            std::ptr::null_mut(),
+            len,
+            libc::PROT_READ | libc::PROT_WRITE,
+            libc::MAP_PRIVATE | libc::MAP_ANONYMOUS,
+            -1,
+            0,
+        );
+        if p == libc::MAP_FAILED {
+            return false;
+        }
+        libc::munmap(p, len);
+    }
+    true
+}
+
+/// Whether `bytes` of address space can be had now: reserved and released at once, nothing
+/// touched.
+#[cfg(not(unix))]
 pub fn can_reserve(bytes: u64) -> bool {
     PROBING.with(|p| p.set(true));
     let mut probe: Vec<u8> = Vec::new();

@@ -182,9 +182,7 @@ impl Batch {
         schedules: &[Schedule],
         run_schedule: &[usize],
     ) -> Result<Batch, ConfigError> {
-        for config in &configs {
-            crate::env::registry::check_params(&spec, &config.params)?;
-        }
+        crate::env::registry::check_each(&spec, configs.iter().map(|c| &c.params))?;
         assert!(run_schedule.is_empty() || run_schedule.len() == configs.len());
         // One plan per distinct (schedule, what compiling depends on in the parameters).
         let none = Schedule::default();

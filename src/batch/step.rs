@@ -217,10 +217,11 @@ fn act<A: Arbiter, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
     } else {
         spec.pick_outcome(sa, uniform(run.rng))
     };
-    let mut next = spec.outcome_state[o] as usize;
-    // Most outcomes bring nothing: one byte says so, and only the others are read.
+    // Most outcomes bring nothing: their landing says so, and only the others' arrival is read.
+    let landing = spec.landing[o];
+    let mut next = landing.state as usize;
     let (mut terminal, mut reset, mut arrival_reward) = (false, false, 0.0);
-    if spec.eventful[o] {
+    if landing.eventful {
         let arrival = spec.arrival[o];
         terminal = arrival.terminal();
         reset = arrival.end == End::Reset;

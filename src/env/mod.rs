@@ -112,6 +112,30 @@ impl Arrival {
     }
 }
 
+/// What the step reads of every outcome it draws, in one entry (one bounds check per step): the
+/// next state ([`Spec::outcome_state`]) and whether the arrival is something other than
+/// [`Arrival::NOTHING`]. Most outcomes bring nothing: only where `eventful` is set is the
+/// arrival read.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Landing {
+    /// The next state.
+    pub state: StateId,
+    /// The arrival brings a reward or ends the episode.
+    pub eventful: bool,
+}
+
+/// The landing of each outcome, from its next state and its arrival.
+fn landings(outcome_state: &[StateId], arrivals: &[Arrival]) -> Vec<Landing> {
+    outcome_state
+        .iter()
+        .zip(arrivals)
+        .map(|(&state, &a)| Landing {
+            state,
+            eventful: a != Arrival::NOTHING,
+        })
+        .collect()
+}
+
 /// A compiled, validated, read-only tabular environment.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Spec {
@@ -134,10 +158,9 @@ pub struct Spec {
     /// What arriving by each outcome brings: its reward model and whether it ends the episode.
     /// The step reads only this, never [`goal`](Spec::goal).
     pub arrival: Vec<Arrival>,
-    /// Per outcome: its arrival is something other than [`Arrival::NOTHING`]. The step reads
-    /// this byte and the arrival only where it is set (most outcomes bring nothing); set with
-    /// the arrivals by [`with_arrivals`](Spec::with_arrivals).
-    pub eventful: Vec<bool>,
+    /// Per outcome: its next state and whether its arrival brings anything, together (see
+    /// [`Landing`]); set with the arrivals by [`with_arrivals`](Spec::with_arrivals).
+    pub landing: Vec<Landing>,
     /// The largest reward magnitude any arrival can bring, kept with the arrivals so that a
     /// rule reading it at every step (`reliability`'s R_max, SPEC 12.3) does not scan them.
     max_abs_reward: f64,
@@ -223,7 +246,7 @@ impl Spec {
             self.outcome_state.len(),
             "one arrival per outcome"
         );
-        self.eventful = arrivals.iter().map(|&a| a != Arrival::NOTHING).collect();
+        self.landing = landings(&self.outcome_state, &arrivals);
         self.max_abs_reward = largest_reward(&arrivals);
         self.arrival = arrivals;
         self.goal = None;
@@ -275,7 +298,7 @@ impl Spec {
             outcome_start.push(outcome_state.len() as u32);
         }
         let arrival = goal_arrivals(&outcome_state, goal);
-        let eventful = arrival.iter().map(|&a| a != Arrival::NOTHING).collect();
+        let landing = landings(&outcome_state, &arrival);
         let max_abs_reward = largest_reward(&arrival);
         Spec {
             name,
@@ -287,7 +310,7 @@ impl Spec {
             outcome_cum,
             initial_states,
             arrival,
-            eventful,
+            landing,
             max_abs_reward,
             goal: Some(goal),
             state_names,
