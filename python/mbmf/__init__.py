@@ -94,7 +94,7 @@ def run(
     ``controller`` a name or a list of names (``CONTROLLERS``); ``seed`` the master seed;
     ``change`` the ``--change STEP:KEY=VALUE`` events; every other keyword is a parameter of the
     registry under its flag's name with ``_`` (``alpha_mf=0.5``, ``interaction="takeover"``,
-    ``profile="paper_takeover"``; ``parameters()`` lists them with defaults and ranges).
+    ``profile="paper-takeover"``; ``parameters()`` lists them with defaults and ranges).
 
     ``out``: also keep runs.parquet and series.parquet in this folder (``force=True`` replaces
     earlier results); by default they are written to a temporary folder and removed.

@@ -49,8 +49,11 @@ def test_same_seed_same_numbers_and_threads_do_not_matter() -> None:
 def test_parameters_follow_the_registry() -> None:
     params = {p[0]: p for p in mbmf.parameters()}
     assert params["alpha_mf"][1:4] == ("float", [], "0.6")
-    assert params["interaction"][2] == ["none", "congratulation", "takeover"] or "takeover" in params["interaction"][2]
-    assert "forget" in params and "profile" in params
+    assert params["interaction"][2][:3] == ["none", "congratulation", "takeover"]
+    assert params["forget"][4] == "a probability in [0, 1]"
+    assert "paper-takeover" in params["profile"][2]
+    # The keywords are the registry's parameters with a flag of `mbmf run`, in column order.
+    assert list(params)[:3] == ["selection", "cost_model", "interaction"]
     runs = pl.DataFrame(mbmf.run(controller="ec", runs=1, alpha_mf=0.5, forget=0.2,
                                  interaction="takeover", budget=7, **SMALL).runs)
     assert runs["alpha_mf"].to_list() == [0.5]
@@ -59,6 +62,17 @@ def test_parameters_follow_the_registry() -> None:
     assert runs["budget"].to_list() == [7]
     # Human fields without a profile describe a custom human, as on the command line.
     assert runs["profile"].to_list() == ["custom"]
+
+
+def test_a_profile_sets_the_human_and_keywords_override_it() -> None:
+    runs = pl.DataFrame(mbmf.run(controller=["mf", "ec"], runs=1, profile="paper-takeover",
+                                 budget=3, **SMALL).runs)
+    assert runs["profile"].to_list() == ["paper-takeover"] * 2
+    assert runs["interaction"].to_list() == ["takeover"] * 2
+    assert runs["budget"].to_list() == [3, 3]
+    # The column name and sweep aliases name the same parameter as the keyword.
+    runs = pl.DataFrame(mbmf.run(controller="ec", runs=1, forget_prob=0.3, kappa=4.0, **SMALL).runs)
+    assert (runs["forget_prob"][0], runs["kappa_coeff"][0]) == (0.3, 4.0)
 
 
 def test_bad_values_raise_value_error_naming_the_parameter() -> None:
