@@ -23,7 +23,7 @@ from typing import Any, NamedTuple, Sequence
 
 from . import _mbmf
 
-__all__ = ["Result", "SweepReport", "run", "sweep", "read", "parameters", "CONTROLLERS", "OUTPUTS"]
+__all__ = ["Result", "SweepReport", "run", "sweep", "read", "min_budget", "parameters", "CONTROLLERS", "OUTPUTS"]
 
 #: The meta-controllers, as ``controller=`` accepts them.
 CONTROLLERS: tuple[str, ...] = tuple(_mbmf.CONTROLLERS)
@@ -208,19 +208,43 @@ def read(
     path: str | os.PathLike[str],
     table: str = "runs",
     *,
+    where: Sequence[str] = (),
     allow_incomplete: bool = False,
     output: str = "arrow",
 ) -> Any:
     """Read table ``table`` ("runs" or "series") of a dataset, as the analysis verbs do.
 
     ``path`` is a run's folder (runs.parquet, series.parquet), a sweep's folder (only its
-    committed parts are read), or one Parquet file. An unfinished sweep is refused unless
-    ``allow_incomplete=True`` (then read with a warning).
+    committed parts are read), or one Parquet file. ``where`` keeps the rows passing every
+    filter, as ``--where`` (``["interaction=takeover", "budget=10"]``). An unfinished sweep is
+    refused unless ``allow_incomplete=True`` (then read with a warning).
 
     >>> runs = mbmf.read("out/run", output="polars")
     """
     _check_output(output)
-    t, warnings = _mbmf.read(os.fspath(path), table, allow_incomplete)
+    t, warnings = _mbmf.read(os.fspath(path), table, list(where), allow_incomplete)
+    for warning in warnings:
+        _warnings.warn(warning, stacklevel=2)
+    return _convert(t, output)
+
+
+def min_budget(
+    path: str | os.PathLike[str],
+    metric: str = "total_reward",
+    alpha: float | None = None,
+    *,
+    where: Sequence[str] = (),
+    allow_incomplete: bool = False,
+    output: str = "arrow",
+) -> Any:
+    """The smallest budget of each group whose ``metric`` no larger budget beats (one-sided
+    tests at level ``alpha``, default 0.05, SPEC 9): the table ``mbmf min-budget`` writes as
+    min_budget.parquet, read from the runs of the dataset at ``path``.
+
+    >>> mbmf.min_budget("out/budgets", metric="reward_last10", output="polars")
+    """
+    _check_output(output)
+    t, warnings = _mbmf.min_budget(os.fspath(path), metric, alpha, list(where), allow_incomplete)
     for warning in warnings:
         _warnings.warn(warning, stacklevel=2)
     return _convert(t, output)

@@ -3,7 +3,7 @@
 import os
 from typing import Any, NamedTuple, Sequence
 
-__all__ = ["Result", "SweepReport", "run", "sweep", "read", "parameters", "CONTROLLERS", "OUTPUTS"]
+__all__ = ["Result", "SweepReport", "run", "sweep", "read", "min_budget", "parameters", "CONTROLLERS", "OUTPUTS"]
 
 CONTROLLERS: tuple[str, ...]
 OUTPUTS: tuple[str, ...]
@@ -58,6 +58,16 @@ def read(
     path: str | os.PathLike[str],
     table: str = "runs",
     *,
+    where: Sequence[str] = (),
+    allow_incomplete: bool = False,
+    output: str = "arrow",
+) -> Any: ...
+def min_budget(
+    path: str | os.PathLike[str],
+    metric: str = "total_reward",
+    alpha: float | None = None,
+    *,
+    where: Sequence[str] = (),
     allow_incomplete: bool = False,
     output: str = "arrow",
 ) -> Any: ...

@@ -1,7 +1,7 @@
 # The native module (python/src/lib.rs); use the wrappers in mbmf/__init__.py.
 from typing import Any, Callable
 
-__all__ = ["run", "read", "sweep", "parameters", "CONTROLLERS"]
+__all__ = ["run", "read", "sweep", "min_budget", "parameters", "CONTROLLERS"]
 
 CONTROLLERS: list[str]
 
@@ -18,7 +18,12 @@ def run(
     progress: Callable[[int, int], object] | None,
     params: dict[str, Any] | None,
 ) -> tuple[Any, Any, list[str]]: ...
-def read(path: str, table: str, allow_incomplete: bool) -> tuple[Any, list[str]]: ...
+def read(
+    path: str, table: str, filters: list[str], allow_incomplete: bool
+) -> tuple[Any, list[str]]: ...
+def min_budget(
+    path: str, metric: str, alpha: float | None, filters: list[str], allow_incomplete: bool
+) -> tuple[Any, list[str]]: ...
 def parameters() -> list[tuple[str, str, list[str], str, str, str]]: ...
 def sweep(
     sweep: Any,

@@ -454,20 +454,72 @@ fn run_error(error: RunError) -> PyErr {
     }
 }
 
-/// A table of a dataset folder (a run's, or a sweep's committed parts), as the analysis verbs
-/// read it; returns it with the warnings about files left out.
-#[pyfunction]
-#[pyo3(signature = (path, table, allow_incomplete))]
-fn read(path: PathBuf, table: &str, allow_incomplete: bool) -> PyResult<(PyTable, Vec<String>)> {
+/// Table `name` of a dataset (a run's folder, a sweep's committed parts, or a file) as the
+/// analysis verbs read it, keeping the rows that pass every `--where` filter; with the
+/// warnings about files left out.
+fn load(
+    path: &Path,
+    name: &str,
+    filters: &[String],
+    allow_incomplete: bool,
+) -> PyResult<(dataset::Table, Vec<String>)> {
     let options = ReadOptions { allow_incomplete };
-    let read = dataset::read_table(&path, table, &options)
+    let read =
+        dataset::read_table(path, name, &options).map_err(|e| PyValueError::new_err(chain(&e)))?;
+    let filters = filters
+        .iter()
+        .map(|f| dataset::Filter::parse(f))
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(|e| PyValueError::new_err(format!("where: {}", chain(&e))))?;
+    let table = dataset::Filter::apply_all(&read.table, &filters)
         .map_err(|e| PyValueError::new_err(chain(&e)))?;
-    let batch = read
-        .table
+    Ok((table, read.warnings))
+}
+
+/// A dataset table as an Arrow table.
+fn to_py(table: &dataset::Table) -> PyResult<PyTable> {
+    let batch = table
         .to_record_batch()
         .map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
     let schema = batch.schema();
-    Ok((PyTable::try_new(vec![batch], schema)?, read.warnings))
+    PyTable::try_new(vec![batch], schema)
+}
+
+/// The Python-facing `read`; see `mbmf.read`.
+#[pyfunction]
+#[pyo3(signature = (path, table, filters, allow_incomplete))]
+fn read(
+    path: PathBuf,
+    table: &str,
+    filters: Vec<String>,
+    allow_incomplete: bool,
+) -> PyResult<(PyTable, Vec<String>)> {
+    let (table, warnings) = load(&path, table, &filters, allow_incomplete)?;
+    Ok((to_py(&table)?, warnings))
+}
+
+/// The Python-facing `min_budget`; see `mbmf.min_budget`: the table `mbmf min-budget` writes
+/// as min_budget.parquet.
+#[pyfunction]
+#[pyo3(signature = (path, metric, alpha, filters, allow_incomplete))]
+fn min_budget(
+    path: PathBuf,
+    metric: &str,
+    alpha: Option<f64>,
+    filters: Vec<String>,
+    allow_incomplete: bool,
+) -> PyResult<(PyTable, Vec<String>)> {
+    use mbmf::analysis::min_budget::{DEFAULT_ALPHA, min_budget};
+    let (table, warnings) = load(&path, "runs", &filters, allow_incomplete)?;
+    if table.is_empty() {
+        return Err(PyValueError::new_err(format!(
+            "{} holds no runs",
+            table.source()
+        )));
+    }
+    let result = min_budget(&table, metric, alpha.unwrap_or(DEFAULT_ALPHA))
+        .map_err(|e| PyValueError::new_err(chain(&e)))?;
+    Ok((to_py(&result.to_table())?, warnings))
 }
 
 /// A Python dict as a TOML table (sweep files are TOML): strings, booleans, ints, floats,
@@ -673,6 +725,7 @@ fn _mbmf(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(run_job, m)?)?;
     m.add_function(wrap_pyfunction!(read, m)?)?;
     m.add_function(wrap_pyfunction!(sweep, m)?)?;
+    m.add_function(wrap_pyfunction!(min_budget, m)?)?;
     m.add_function(wrap_pyfunction!(parameters, m)?)?;
     m.add(
         "CONTROLLERS",

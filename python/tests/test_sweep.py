@@ -53,3 +53,25 @@ def test_bad_sweeps_raise_value_error(tmp_path) -> None:
         mbmf.sweep({"grid": {"alpha_mf": [2.0]}}, out=tmp_path / "bad", progress=False)
     with pytest.raises(ValueError, match="shard"):
         mbmf.sweep(SWEEP, out=tmp_path / "s", shard=(2, 2), progress=False)
+
+
+def test_min_budget_equals_the_command_line(tmp_path, mbmf_bin) -> None:
+    import subprocess
+
+    import pyarrow.parquet as pq
+
+    out = tmp_path / "budgets"
+    mbmf.sweep({"seeds": 3, "fixed": {"steps": 300, "babbling": 50, "controller": "ec",
+                                      "interaction": "takeover"},
+                "grid": {"budget": [0, 5, 50]}}, out=out, progress=False)
+    py = mbmf.min_budget(out, output="pyarrow")
+    subprocess.run([str(mbmf_bin), "min-budget", str(out)], check=True, capture_output=True)
+    cli = pq.read_table(out / "analysis" / "min_budget.parquet")
+    assert py.num_rows == cli.num_rows >= 1
+    assert py.select(cli.column_names).to_pylist() == cli.to_pylist()
+    # where= is --where: COLUMN=VALUE filters, here one that keeps every run, then none.
+    assert mbmf.min_budget(out, where=["controller=ec"], output="pyarrow").equals(py)
+    with pytest.raises(ValueError, match="no run matches --where 'controller=mf'"):
+        mbmf.min_budget(out, where=["controller=mf"])
+    with pytest.raises(ValueError, match="no_such_column|metric"):
+        mbmf.min_budget(out, metric="no_such_column")
