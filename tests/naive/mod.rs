@@ -751,7 +751,8 @@ impl NaiveRun {
         };
         let chi_mb = ratio(0) / (ratio(0) + ratio(1) + ratio(2));
         self.rel_omega += p.rel_eta * (rpe.abs() - self.rel_omega);
-        let r_max = self.spec.max_abs_reward();
+        // The largest |reward| of the world in force: a goal task rewards only its goal.
+        let r_max = self.goal_reward.abs();
         let chi_mf = if r_max > 0.0 {
             ((r_max - self.rel_omega) / r_max).clamp(0.0, 1.0)
         } else {
