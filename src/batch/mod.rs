@@ -390,6 +390,11 @@ impl Batch {
         }
     }
 
+    /// Run `r`'s task state ([`crate::env::Dynamics`]; empty for a task without).
+    pub fn task_state(&self, r: usize) -> &[f64] {
+        storage::row(&self.tables.task_state, self.len(), r)
+    }
+
     /// Number of states the MB expert of run `r` knows: the start of at least one learned
     /// transition, so the states its value iteration sweeps (SPEC 3.2).
     pub fn known_states(&self, r: usize) -> usize {
