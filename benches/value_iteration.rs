@@ -73,6 +73,7 @@ fn learn(spec: &Spec) -> Learned {
             arbiter_pairs: &mut [],
             model: model.view(),
             scratch: &mut scratch,
+            task_state: &mut [],
             rng: &mut rng,
             cursor: &mut cursor,
             stats: &mut stats,

@@ -94,6 +94,7 @@ impl Solo {
             arbiter_pairs: &mut [],
             model: self.model.view(),
             scratch: &mut self.scratch,
+            task_state: &mut [],
             rng: &mut self.rng,
             cursor: &mut self.cursor,
             stats: &mut self.stats,

@@ -19,7 +19,6 @@ use ndarray::{Array2, Array3, ArrayView2, CowArray, Ix2};
 use rand_xoshiro::Xoshiro256PlusPlus;
 use rayon::prelude::*;
 
-use crate::env::tidy::Boxes;
 use crate::env::{Spec, StateId};
 use crate::expert::mb::Observable;
 use crate::params::ConfigError;
@@ -187,20 +186,28 @@ impl Batch {
         // One plan per distinct (schedule, what compiling depends on in the parameters).
         let none = Schedule::default();
         let mut plans: Vec<Plan> = Vec::new();
-        let mut keys: Vec<(usize, Boxes, u32, crate::params::Controller, u64, bool)> = Vec::new();
+        type Key = (
+            usize,
+            Vec<crate::params::Value>,
+            u32,
+            crate::params::Controller,
+            u64,
+            bool,
+        );
+        let mut keys: Vec<Key> = Vec::new();
         let mut run_plan = Vec::with_capacity(configs.len());
         for (r, config) in configs.iter().enumerate() {
             let p = &config.params;
             let which = run_schedule.get(r).copied();
             let schedule = which.map_or(&none, |i| &schedules[i]);
             let nuisance = p.human.interaction == Interaction::Nuisance;
-            if schedule.is_empty() && p.boxes == Boxes::RGB && !nuisance {
+            if schedule.is_empty() && crate::env::registry::task_params_default(p) && !nuisance {
                 run_plan.push(NO_PLAN);
                 continue;
             }
             let key = (
                 which.unwrap_or(usize::MAX),
-                p.boxes,
+                crate::env::registry::task_param_values(p),
                 p.steps,
                 p.controller,
                 p.human.zeta.to_bits(),
@@ -272,10 +279,12 @@ impl Batch {
     /// read (the shared zero page), whose copy on the first write costs a TLB shootdown on every
     /// other thread of the process.
     fn start_runs(&mut self) {
-        let n_actions = self.spec.n_actions;
-        self.views()
-            .into_par_iter()
-            .for_each(|(params, mut run)| run.start(params, n_actions));
+        let spec = Arc::clone(&self.spec);
+        self.views().into_par_iter().for_each(|(params, mut run)| {
+            // The world the run starts in: its plan's first, or the batch's.
+            let world = run.plan.map_or(&*spec, |p| &*p.worlds[0]);
+            run.start(params, world.n_actions, world.dynamics.as_ref());
+        });
     }
 
     /// The canonical text of run `r`'s schedule ("" without changes, SPEC 10).
@@ -377,6 +386,11 @@ impl Batch {
         } else {
             CowArray::from(ArrayView2::from_shape(shape, row).expect("one [state, action] table"))
         }
+    }
+
+    /// Run `r`'s task state ([`crate::env::Dynamics`]; empty for a task without).
+    pub fn task_state(&self, r: usize) -> &[f64] {
+        storage::row(&self.tables.task_state, self.len(), r)
     }
 
     /// Number of states the MB expert of run `r` knows: the start of at least one learned

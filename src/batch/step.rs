@@ -15,7 +15,7 @@ use std::time::Instant;
 use super::settled::{Expert, Fold};
 use super::{Checkpoint, RunView, Settled, initial_state, uniform};
 use crate::arbiter::{self, Arbiter, Draw, Inputs, Mixed, Own, Transition, Visit};
-use crate::env::{Chance, End, Spec};
+use crate::env::{End, Spec};
 use crate::expert::{draw, ema, entropy_bits, max_of, mf, normalise_bits, softmax_biased};
 use crate::human::{self, Encounter};
 use crate::params::{
@@ -115,6 +115,10 @@ fn run_loop<A: Arbiter, const HUMAN: bool, const NA: usize>(
             let world = world(spec, run);
             run.cursor.pending_reset = false;
             run.cursor.state = initial_state(world, run.rng);
+            // The task's state is drawn afresh for the experiment (SPEC 13).
+            if let Some(d) = &world.dynamics {
+                (d.start)(d, run.task_state, run.rng);
+            }
         }
     }
     if run.cursor.t >= end {
@@ -227,7 +231,7 @@ fn act<A: Arbiter, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
         reset = arrival.end == End::Reset;
         arrival_reward = arrival.reward;
         // A drawn reward: its draw comes right after the outcome's (a fixed one draws nothing).
-        if let Chance::Drawn(p) = arrival.chance
+        if let Some(p) = arrival.chance.p(run.task_state)
             && uniform(run.rng) >= p
         {
             arrival_reward = 0.0;
@@ -338,6 +342,10 @@ fn act<A: Arbiter, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
         }
     }
     run.cursor.state = next as u32;
+    // The task's own dynamics after a terminal arrival, after every other draw of the step.
+    if terminal && let Some(d) = &spec.dynamics {
+        (d.after_episode)(d, run.task_state, run.rng);
+    }
 }
 
 /// The run's side of an opportunity of its human `human` in world `spec` at step `t_exp`.

@@ -38,6 +38,8 @@ pub struct Sizes {
     pub arbiter_scalars: usize,
     /// `[state, action]` tables per run of the most demanding arbitration rule.
     pub arbiter_tables: usize,
+    /// Values of per-run task state ([`crate::env::Dynamics::len`]; 0 for a task without).
+    pub task_state: usize,
 }
 
 impl Sizes {
@@ -70,6 +72,7 @@ impl Sizes {
             },
             arbiter_scalars: max(&|p| p.controller.run_scalars(p)),
             arbiter_tables: max(&|p| p.controller.pair_tables(p)),
+            task_state: spec.dynamics.as_ref().map_or(0, |d| d.len),
         }
     }
 
@@ -177,10 +180,19 @@ macro_rules! tables {
 
         impl RunView<'_> {
             /// Writes the run's initial values (see `Batch::start_runs`): every view row's, the
-            /// empty model, and the arbitration rule's own start.
-            pub(super) fn start(&mut self, params: &Params, n_actions: usize) {
+            /// empty model, the arbitration rule's own start and the task state's (the task's
+            /// `start` hook, drawing from the run's stream, for a task with dynamics).
+            pub(super) fn start(
+                &mut self,
+                params: &Params,
+                n_actions: usize,
+                dynamics: Option<&crate::env::Dynamics>,
+            ) {
                 let ($p, $n) = (params, n_actions);
                 $(self.$v.fill($init);)*
+                if let Some(d) = dynamics {
+                    (d.start)(d, self.task_state, self.rng);
+                }
                 self.model.clear();
                 let mut own = crate::arbiter::Own {
                     run: self.arbiter_run,
@@ -242,6 +254,8 @@ tables! {
         arbiter_pairs: f64 [z.arbiter_tables * z.states * z.actions] = 0.0;
         /// 2 |A| values of scratch space for the two experts' distributions.
         scratch: f64 [2 * z.actions] = 0.0;
+        /// The task's per-run state ([`crate::env::Dynamics`]; empty for a task without).
+        task_state: f64 [z.task_state] = 0.0;
     }
     model {
         ring: u16 [z.mb_pairs() * z.window_cap];

@@ -25,6 +25,7 @@ tasks! {
     grid => GRID;
     json => JSON;
     chain => CHAIN;
+    twostep => TWOSTEP;
 }
 
 use std::path::PathBuf;
@@ -69,9 +70,54 @@ pub enum Chance {
     /// Always: no random draw.
     Always,
     /// With probability `p`: one uniform draw at every arrival (babbling included, where the
-    /// reward is then withheld), the reward given when the draw is below `p` (SPEC 13's
-    /// Bernoulli rewards; their drift will read `p` from per-run task state instead).
+    /// reward is then withheld), the reward given when the draw is below `p`.
     Drawn(f64),
+    /// As [`Drawn`](Chance::Drawn), with `p` read from slot `slot` of the run's task state
+    /// ([`Dynamics`]): SPEC 13's drifting Bernoulli rewards.
+    DrawnFrom(usize),
+}
+
+impl Chance {
+    /// The probability of the reward when it is drawn (`None`: always had, no draw), reading
+    /// a [`DrawnFrom`](Chance::DrawnFrom) slot of the run's task state `state`.
+    #[inline(always)]
+    pub fn p(self, state: &[f64]) -> Option<f64> {
+        match self {
+            Chance::Always => None,
+            Chance::Drawn(p) => Some(p),
+            Chance::DrawnFrom(slot) => Some(state[slot]),
+        }
+    }
+}
+
+/// A task hook on a run's task state: the dynamics, the run's state (`len` values) and the
+/// run's own random stream (a hook's draws are the run's, in the order it makes them).
+pub type Hook = fn(&Dynamics, &mut [f64], &mut rand_xoshiro::Xoshiro256PlusPlus);
+
+/// Per-run task state, declared with the task: `len` values per run (a flat array of the batch,
+/// zero-length for a task without dynamics), written by `start` when the run starts and again
+/// when the experiment starts after babbling, and changed by `after_episode` after every
+/// terminal arrival (babbling included), after every other draw of that step. Arrivals read it
+/// through [`Chance::DrawnFrom`].
+#[derive(Debug, Clone)]
+pub struct Dynamics {
+    /// Values per run.
+    pub len: usize,
+    /// The task's constants the hooks read (e.g. twostep's `drift_sd`).
+    pub constants: Vec<f64>,
+    /// Writes a run's initial state.
+    pub start: Hook,
+    /// Changes a run's state after a terminal arrival.
+    pub after_episode: Hook,
+}
+
+impl PartialEq for Dynamics {
+    fn eq(&self, other: &Dynamics) -> bool {
+        self.len == other.len
+            && self.constants == other.constants
+            && std::ptr::fn_addr_eq(self.start, other.start)
+            && std::ptr::fn_addr_eq(self.after_episode, other.after_episode)
+    }
 }
 
 /// What an arrival does to the episode.
@@ -171,6 +217,8 @@ pub struct Spec {
     pub state_names: Vec<String>,
     /// Human-interaction tables; `None` where the task does not define them (`json:` worlds).
     pub human: Option<HumanTables>,
+    /// Per-run task state and its hooks; `None` for a task without (no array, no draw).
+    pub dynamics: Option<Dynamics>,
 }
 
 impl Spec {
@@ -315,6 +363,7 @@ impl Spec {
             goal: Some(goal),
             state_names,
             human,
+            dynamics: None,
         }
     }
 }

@@ -315,6 +315,12 @@ macro_rules! task_params {
             $($rows)*
             task boxes: $crate::env::tidy::Boxes = $crate::env::tidy::Boxes::RGB,
                 "tidy1 box assignment at the start: position i gives cube i's box (rgb by default)";
+            task common_prob: f64 = 0.7,
+                "twostep: probability of the common first-stage transition" ("probability"),
+                accepts "a probability in [0, 1]" if |x| (0.0..=1.0).contains(&x);
+            task drift_sd: f64 = 0.025,
+                "twostep: standard deviation of the reward probabilities' drift per trial",
+                accepts "a standard deviation in [0, 1]" if |x| (0.0..=1.0).contains(&x);
         }
     };
 }
