@@ -134,7 +134,7 @@ pub enum RunError {
     /// One run does not fit in the memory this process may use, or a batch's memory could not be
     /// obtained.
     #[error(transparent)]
-    Memory(#[from] MemoryError),
+    Memory(Box<MemoryError>),
     /// The job's output does not fit on the disk, or it would take too long.
     #[error(transparent)]
     Size(#[from] SizeError),
@@ -168,7 +168,14 @@ impl crate::error::Usage for RunError {
                 | RunError::Empty(_)
                 | RunError::Size(_)
                 | RunError::Out(_)
-        ) || matches!(self, RunError::Memory(m) if crate::error::Usage::is_usage(m))
+        ) || matches!(self, RunError::Memory(m) if crate::error::Usage::is_usage(m.as_ref()))
+    }
+}
+
+// Boxed: the refusal's message parts would make every `Result<_, RunError>` large.
+impl From<MemoryError> for RunError {
+    fn from(e: MemoryError) -> RunError {
+        RunError::Memory(Box::new(e))
     }
 }
 

@@ -14,9 +14,7 @@ use arrow::datatypes::SchemaRef;
 use arrow::record_batch::RecordBatch;
 use mbmf::analysis::dataset::{self, ReadOptions};
 use mbmf::error::Usage;
-use mbmf::params::{
-    ConfigError, Controller, Kind, PARAMS, Param, Params, Profile, Value, default_steps,
-};
+use mbmf::params::{ConfigError, Controller, Kind, PARAMS, Param, Params, Profile, Value};
 use mbmf::run::{Job, RunError};
 use mbmf::schedule::Schedule;
 use pyo3::exceptions::{PyKeyboardInterrupt, PyRuntimeError, PyTypeError, PyValueError};
@@ -212,7 +210,8 @@ fn controller_params(
             human: chosen.human(controller).unwrap_or_default(),
             profile: chosen,
             reward_source: chosen.reward_source().unwrap_or_default(),
-            steps: default_steps(task),
+            steps: mbmf::env::registry::default_steps(task),
+            babbling: mbmf::env::registry::default_babbling(task),
             ..Params::default()
         };
         for (param, value) in &given {
