@@ -18,7 +18,7 @@
 //! let ec = Params { controller: Controller::Ec, steps: 2_000, ..Params::default() };
 //! let job = mbmf::run::Job::new("tidy1", spec, vec![ec], "out/ec");
 //! let done = mbmf::run::execute(job, &AtomicBool::new(false), |_| {})?;
-//! println!("wrote {}", done.files[0].display());
+//! let [runs, series] = &done.files; // the committed pair, in "out/ec"
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
