@@ -181,7 +181,9 @@ impl Batch {
         schedules: &[Schedule],
         run_schedule: &[usize],
     ) -> Result<Batch, ConfigError> {
-        crate::env::registry::check_each(&spec, configs.iter().map(|c| &c.params))?;
+        for config in &configs {
+            crate::env::registry::check_params(&spec, &config.params)?;
+        }
         assert!(run_schedule.is_empty() || run_schedule.len() == configs.len());
         // One plan per distinct (schedule, what compiling depends on in the parameters).
         let none = Schedule::default();

@@ -167,30 +167,9 @@ pub fn default_babbling(task: &str) -> u32 {
 /// with its rewards, and a human its task allows (SPEC 5, 11.1). Task parameters are checked
 /// where they configure the world ([`configure`]).
 pub fn check_params(spec: &Spec, params: &Params) -> Result<(), crate::params::ConfigError> {
-    check_each(spec, std::iter::once(params))
-}
-
-/// [`check_params`] of every one of `params` in turn, the first error first; the world's
-/// largest reward is found once for all of them (it reads every outcome's arrival).
-pub fn check_each<'p>(
-    spec: &Spec,
-    params: impl IntoIterator<Item = &'p Params>,
-) -> Result<(), crate::params::ConfigError> {
-    let max_abs_reward = spec.max_abs_reward();
-    params
-        .into_iter()
-        .try_for_each(|p| check_with_reward(spec, max_abs_reward, p))
-}
-
-/// [`check_params`] where the world's largest reward magnitude is `max_abs_reward`.
-fn check_with_reward(
-    spec: &Spec,
-    max_abs_reward: f64,
-    params: &Params,
-) -> Result<(), crate::params::ConfigError> {
     use crate::params::ConfigError;
     params.validate()?;
-    params.validate_for_reward(max_abs_reward)?;
+    params.validate_for_reward(spec.max_abs_reward())?;
     let interaction = params.human.interaction;
     if interaction != Interaction::None
         && params.human.budget > 0
