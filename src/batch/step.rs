@@ -16,6 +16,7 @@ use super::settled::{Expert, Fold};
 use super::{Checkpoint, RunView, Settled, initial_state, uniform};
 use crate::arbiter::{self, Arbiter, Draw, Inputs, Mixed, Own, Transition, Visit};
 use crate::env::{End, Spec};
+use crate::expert::mf::Trace;
 use crate::expert::{draw, ema, entropy_bits, max_of, mf, normalise_bits, softmax_biased};
 use crate::human::{self, Encounter};
 use crate::params::{
@@ -62,9 +63,10 @@ struct Loop<'r, 'v> {
 impl Visit for Loop<'_, '_> {
     type Output = ();
 
-    /// The loop for rule `A`, the human mode and the action count. The tidy tasks' 7 actions
-    /// get their own copy, whose rows have a length known at compile time (loops unrolled, no
-    /// remainder handling); other action counts share a generic one (`NA` 0: read from the spec).
+    /// The loop for rule `A`, the human mode, the action count and the MF's eligibility trace.
+    /// The tidy tasks' 7 actions get their own copy, whose rows have a length known at compile
+    /// time (loops unrolled, no remainder handling); other action counts share a generic one
+    /// (`NA` 0: read from the spec), and so do runs with a trace (`TRACE`, `lambda_mf` > 0).
     /// A rule that gives a weight runs as [`Mixed`] under `combine = mix`; others ignore it.
     #[inline(always)]
     fn visit<A: Arbiter>(self) {
@@ -87,17 +89,20 @@ impl Loop<'_, '_> {
             end,
             human,
         } = self;
-        match (spec.n_actions == 7, human) {
-            (true, false) => run_loop::<A, false, 7>(spec, p, run, end),
-            (true, true) => run_loop::<A, true, 7>(spec, p, run, end),
-            (false, false) => run_loop::<A, false, 0>(spec, p, run, end),
-            (false, true) => run_loop::<A, true, 0>(spec, p, run, end),
+        let trace = A::RUNS_MF && !A::LEARNS_MF && p.traces();
+        match (spec.n_actions == 7 && !trace, human, trace) {
+            (true, false, _) => run_loop::<A, false, 7, false>(spec, p, run, end),
+            (true, true, _) => run_loop::<A, true, 7, false>(spec, p, run, end),
+            (false, false, false) => run_loop::<A, false, 0, false>(spec, p, run, end),
+            (false, true, false) => run_loop::<A, true, 0, false>(spec, p, run, end),
+            (false, false, true) => run_loop::<A, false, 0, true>(spec, p, run, end),
+            (false, true, true) => run_loop::<A, true, 0, true>(spec, p, run, end),
         }
     }
 }
 
-/// [`run_until`] for one arbitration rule and human mode.
-fn run_loop<A: Arbiter, const HUMAN: bool, const NA: usize>(
+/// [`run_until`] for one arbitration rule, human mode, action count and trace mode.
+fn run_loop<A: Arbiter, const HUMAN: bool, const NA: usize, const TRACE: bool>(
     spec: &Spec,
     params: &Params,
     run: &mut RunView<'_>,
@@ -108,7 +113,7 @@ fn run_loop<A: Arbiter, const HUMAN: bool, const NA: usize>(
     let babble_end = end.min(babbling);
     if run.cursor.t < babble_end {
         while run.cursor.t < babble_end {
-            one_step::<A, HUMAN, NA, true>(spec, params, run, 0);
+            one_step::<A, HUMAN, NA, TRACE, true>(spec, params, run, 0);
         }
         if run.cursor.t == babbling {
             // End of babbling: back to the start; a pending reset step is dropped (SPEC 7).
@@ -118,6 +123,11 @@ fn run_loop<A: Arbiter, const HUMAN: bool, const NA: usize>(
             // The task's state is drawn afresh for the experiment (SPEC 13).
             if let Some(d) = &world.dynamics {
                 (d.start)(d, run.task_state, run.rng);
+            }
+            // The tally counts the experiment only; the trace ends with the episode (SPEC 3.1).
+            run.tally.fill(0.0);
+            if TRACE {
+                trace(run).clear();
             }
         }
     }
@@ -136,7 +146,7 @@ fn run_loop<A: Arbiter, const HUMAN: bool, const NA: usize>(
     let mut row_at = next_row(t_exp);
     while run.cursor.t < end {
         t_exp += 1;
-        one_step::<A, HUMAN, NA, false>(spec, params, run, t_exp);
+        one_step::<A, HUMAN, NA, TRACE, false>(spec, params, run, t_exp);
         if t_exp == row_at {
             record_checkpoint(run, t_exp);
             row_at = next_row(t_exp);
@@ -158,9 +168,25 @@ fn world<'s>(spec: &'s Spec, run: &RunView<'s>) -> &'s Spec {
         .map_or(spec, |p| &*p.worlds[usize::from(run.cursor.world)])
 }
 
+/// The run's MF eligibility trace (runs with `lambda_mf` > 0 only).
+#[inline(always)]
+fn trace<'r>(run: &'r mut RunView<'_>) -> Trace<'r> {
+    Trace {
+        e: run.trace,
+        pairs: run.traced,
+        len: &mut run.cursor.traced,
+    }
+}
+
 /// One step (SPEC 3.4) at experiment step `t_exp` (0 while babbling).
 #[inline(always)]
-fn one_step<A: Arbiter, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
+fn one_step<
+    A: Arbiter,
+    const HUMAN: bool,
+    const NA: usize,
+    const TRACE: bool,
+    const BABBLING: bool,
+>(
     spec: &Spec,
     params: &Params,
     run: &mut RunView<'_>,
@@ -182,14 +208,17 @@ fn one_step<A: Arbiter, const HUMAN: bool, const NA: usize, const BABBLING: bool
         // this is one was decided by the previous arrival, even if the goal has since moved.
         run.cursor.pending_reset = false;
         run.cursor.state = initial_state(spec, run.rng);
+        if TRACE {
+            trace(run).clear();
+        }
     } else {
-        act::<A, HUMAN, NA, BABBLING>(spec, params, run, s, t_exp);
+        act::<A, HUMAN, NA, TRACE, BABBLING>(spec, params, run, s, t_exp);
     }
 }
 
 /// Steps 2 to 8 of SPEC 3.4 in a non-goal state.
 #[inline(always)]
-fn act<A: Arbiter, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
+fn act<A: Arbiter, const HUMAN: bool, const NA: usize, const TRACE: bool, const BABBLING: bool>(
     spec: &Spec,
     params: &Params,
     run: &mut RunView<'_>,
@@ -235,6 +264,10 @@ fn act<A: Arbiter, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
             && uniform(run.rng) >= p
         {
             arrival_reward = 0.0;
+        }
+        // A task that tallies its steps marks every outcome eventful (no other task pays).
+        if let Some(tally) = &spec.tally {
+            (tally.note)(run.tally, s, a, next, arrival_reward);
         }
     }
     // 11.2: a nuisance human undoes a relevant action before anything learns from it; the
@@ -296,6 +329,30 @@ fn act<A: Arbiter, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
         if !HUMAN && run.q_mf[sa].to_bits() != before.to_bits() {
             run.settled[s].q_changed(Expert::Mf);
         }
+    } else if A::RUNS_MF && TRACE {
+        // SPEC 3.1 with lambda_mf > 0: the TD error of (s, a) goes to every traced pair.
+        let future = mf::future(run.q_mf, n_a, next, terminal);
+        let delta = learned + params.gamma_mf * future - run.q_mf[sa];
+        let decay = params.gamma_mf * params.lambda_mf;
+        let settled = &mut *run.settled;
+        let mut trace = Trace {
+            e: run.trace,
+            pairs: run.traced,
+            len: &mut run.cursor.traced,
+        };
+        trace.learn(
+            run.q_mf,
+            sa,
+            delta,
+            params.alpha_mf,
+            decay,
+            terminal,
+            |pair| {
+                if !HUMAN {
+                    settled[pair / n_a].q_changed(Expert::Mf);
+                }
+            },
+        );
     } else if A::RUNS_MF {
         // An `mf` run without a human keeps each Q row's maximum; other runs read the row.
         let future = match (mf_alone::<A>() && !HUMAN, terminal) {
