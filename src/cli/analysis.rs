@@ -737,7 +737,10 @@ fn stay_chart(s: &stay::Stay) -> plot::BarPanels {
         .map(|g| {
             let bar = |column: usize, label: &str, group: &str| plot::Bar {
                 label: label.to_owned(),
-                value: g.columns[column].mean.max(0.0).min(1.0),
+                // A kind no trial of the group had draws no bar (0).
+                value: Some(g.columns[column].mean)
+                    .filter(|m| m.is_finite())
+                    .map_or(0.0, |m| m.clamp(0.0, 1.0)),
                 error: Some(g.columns[column].sem).filter(|e| e.is_finite()),
                 group: group.to_owned(),
             };
