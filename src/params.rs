@@ -456,7 +456,7 @@ fn approx(x: f64) -> String {
 impl Params {
     /// Whether the run's MF learns with an eligibility trace (SPEC 3.1: `lambda_mf` > 0 and an
     /// MF expert learning by Q-learning; `vpi`, whose MF is a Kalman filter, is refused).
-    pub fn traces(&self) -> bool {
+    pub fn uses_eligibility(&self) -> bool {
         self.lambda_mf > 0.0 && self.controller.runs_mf() && self.controller != Controller::Vpi
     }
 

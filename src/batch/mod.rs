@@ -110,7 +110,7 @@ pub struct Cursor {
     /// Checkpoint rows written.
     pub checkpoints_written: u32,
     /// Pairs in the MF eligibility trace (`lambda_mf` > 0 only).
-    pub traced: u32,
+    pub eligible: u32,
 }
 
 impl Cursor {

@@ -16,7 +16,7 @@ use super::settled::{Expert, Fold};
 use super::{Checkpoint, RunView, Settled, initial_state, uniform};
 use crate::arbiter::{self, Arbiter, Draw, Inputs, Mixed, Own, Transition, Visit};
 use crate::env::{End, Spec};
-use crate::expert::mf::Trace;
+use crate::expert::mf::Eligibility;
 use crate::expert::{draw, ema, entropy_bits, max_of, mf, normalise_bits, softmax_biased};
 use crate::human::{self, Encounter};
 use crate::params::{
@@ -66,7 +66,7 @@ impl Visit for Loop<'_, '_> {
     /// The loop for rule `A`, the human mode, the action count and the MF's eligibility trace.
     /// The tidy tasks' 7 actions get their own copy, whose rows have a length known at compile
     /// time (loops unrolled, no remainder handling); other action counts share a generic one
-    /// (`NA` 0: read from the spec), and so do runs with a trace (`TRACE`, `lambda_mf` > 0).
+    /// (`NA` 0: read from the spec), and so do runs with an eligibility trace (`ELIGIBILITY`, `lambda_mf` > 0).
     /// A rule that gives a weight runs as [`Mixed`] under `combine = mix`; others ignore it.
     #[inline(always)]
     fn visit<A: Arbiter>(self) {
@@ -89,7 +89,7 @@ impl Loop<'_, '_> {
             end,
             human,
         } = self;
-        let trace = A::RUNS_MF && !A::LEARNS_MF && p.traces();
+        let trace = A::RUNS_MF && !A::LEARNS_MF && p.uses_eligibility();
         match (spec.n_actions == 7 && !trace, human, trace) {
             (true, false, _) => run_loop::<A, false, 7, false>(spec, p, run, end),
             (true, true, _) => run_loop::<A, true, 7, false>(spec, p, run, end),
@@ -102,7 +102,7 @@ impl Loop<'_, '_> {
 }
 
 /// [`run_until`] for one arbitration rule, human mode, action count and trace mode.
-fn run_loop<A: Arbiter, const HUMAN: bool, const NA: usize, const TRACE: bool>(
+fn run_loop<A: Arbiter, const HUMAN: bool, const NA: usize, const ELIGIBILITY: bool>(
     spec: &Spec,
     params: &Params,
     run: &mut RunView<'_>,
@@ -113,7 +113,7 @@ fn run_loop<A: Arbiter, const HUMAN: bool, const NA: usize, const TRACE: bool>(
     let babble_end = end.min(babbling);
     if run.cursor.t < babble_end {
         while run.cursor.t < babble_end {
-            one_step::<A, HUMAN, NA, TRACE, true>(spec, params, run, 0);
+            one_step::<A, HUMAN, NA, ELIGIBILITY, true>(spec, params, run, 0);
         }
         if run.cursor.t == babbling {
             // End of babbling: back to the start; a pending reset step is dropped (SPEC 7).
@@ -126,8 +126,8 @@ fn run_loop<A: Arbiter, const HUMAN: bool, const NA: usize, const TRACE: bool>(
             }
             // The tally counts the experiment only; the trace ends with the episode (SPEC 3.1).
             run.tally.fill(0.0);
-            if TRACE {
-                trace(run).clear();
+            if ELIGIBILITY {
+                eligibility(run).clear();
             }
         }
     }
@@ -146,7 +146,7 @@ fn run_loop<A: Arbiter, const HUMAN: bool, const NA: usize, const TRACE: bool>(
     let mut row_at = next_row(t_exp);
     while run.cursor.t < end {
         t_exp += 1;
-        one_step::<A, HUMAN, NA, TRACE, false>(spec, params, run, t_exp);
+        one_step::<A, HUMAN, NA, ELIGIBILITY, false>(spec, params, run, t_exp);
         if t_exp == row_at {
             record_checkpoint(run, t_exp);
             row_at = next_row(t_exp);
@@ -170,11 +170,11 @@ fn world<'s>(spec: &'s Spec, run: &RunView<'s>) -> &'s Spec {
 
 /// The run's MF eligibility trace (runs with `lambda_mf` > 0 only).
 #[inline(always)]
-fn trace<'r>(run: &'r mut RunView<'_>) -> Trace<'r> {
-    Trace {
-        e: run.trace,
-        pairs: run.traced,
-        len: &mut run.cursor.traced,
+fn eligibility<'r>(run: &'r mut RunView<'_>) -> Eligibility<'r> {
+    Eligibility {
+        e: run.eligibility,
+        pairs: run.eligible,
+        len: &mut run.cursor.eligible,
     }
 }
 
@@ -184,7 +184,7 @@ fn one_step<
     A: Arbiter,
     const HUMAN: bool,
     const NA: usize,
-    const TRACE: bool,
+    const ELIGIBILITY: bool,
     const BABBLING: bool,
 >(
     spec: &Spec,
@@ -208,17 +208,17 @@ fn one_step<
         // this is one was decided by the previous arrival, even if the goal has since moved.
         run.cursor.pending_reset = false;
         run.cursor.state = initial_state(spec, run.rng);
-        if TRACE {
-            trace(run).clear();
+        if ELIGIBILITY {
+            eligibility(run).clear();
         }
     } else {
-        act::<A, HUMAN, NA, TRACE, BABBLING>(spec, params, run, s, t_exp);
+        act::<A, HUMAN, NA, ELIGIBILITY, BABBLING>(spec, params, run, s, t_exp);
     }
 }
 
 /// Steps 2 to 8 of SPEC 3.4 in a non-goal state.
 #[inline(always)]
-fn act<A: Arbiter, const HUMAN: bool, const NA: usize, const TRACE: bool, const BABBLING: bool>(
+fn act<A: Arbiter, const HUMAN: bool, const NA: usize, const ELIGIBILITY: bool, const BABBLING: bool>(
     spec: &Spec,
     params: &Params,
     run: &mut RunView<'_>,
@@ -329,16 +329,16 @@ fn act<A: Arbiter, const HUMAN: bool, const NA: usize, const TRACE: bool, const 
         if !HUMAN && run.q_mf[sa].to_bits() != before.to_bits() {
             run.settled[s].q_changed(Expert::Mf);
         }
-    } else if A::RUNS_MF && TRACE {
+    } else if A::RUNS_MF && ELIGIBILITY {
         // SPEC 3.1 with lambda_mf > 0: the TD error of (s, a) goes to every traced pair.
         let future = mf::future(run.q_mf, n_a, next, terminal);
         let delta = learned + params.gamma_mf * future - run.q_mf[sa];
         let decay = params.gamma_mf * params.lambda_mf;
         let settled = &mut *run.settled;
-        let mut trace = Trace {
-            e: run.trace,
-            pairs: run.traced,
-            len: &mut run.cursor.traced,
+        let mut trace = Eligibility {
+            e: run.eligibility,
+            pairs: run.eligible,
+            len: &mut run.cursor.eligible,
         };
         trace.learn(
             run.q_mf,

@@ -41,7 +41,7 @@ pub struct Sizes {
     /// Values of per-run task state ([`crate::env::Dynamics::len`]; 0 for a task without).
     pub task_state: usize,
     /// Pairs of the MF eligibility trace: the task's when a run has `lambda_mf` > 0, else 0.
-    pub trace_pairs: usize,
+    pub eligibility_pairs: usize,
     /// Values of the task's per-run tally ([`crate::env::Tally::len`]; 0 for a task without).
     pub tally: usize,
 }
@@ -77,7 +77,7 @@ impl Sizes {
             arbiter_scalars: max(&|p| p.controller.run_scalars(p)),
             arbiter_tables: max(&|p| p.controller.pair_tables(p)),
             task_state: spec.dynamics.as_ref().map_or(0, |d| d.len),
-            trace_pairs: if params.clone().any(Params::traces) {
+            eligibility_pairs: if params.clone().any(Params::uses_eligibility) {
                 n_s * spec.n_actions
             } else {
                 0
@@ -268,9 +268,9 @@ tables! {
         task_state: f64 [z.task_state] = 0.0;
         /// MF eligibility trace e(s, a), `[state, action]` (SPEC 3.1; empty unless a run of the
         /// batch has `lambda_mf` > 0).
-        trace: f64 [z.trace_pairs] = 0.0;
-        /// The pairs with e > 0, the first `Cursor::traced` of them ([`crate::expert::mf::Trace`]).
-        traced: u32 [z.trace_pairs] = 0;
+        eligibility: f64 [z.eligibility_pairs] = 0.0;
+        /// The pairs with e > 0, the first `Cursor::eligible` of them ([`crate::expert::mf::Eligibility`]).
+        eligible: u32 [z.eligibility_pairs] = 0;
         /// The task's tally of the experiment ([`crate::env::Tally`]; empty for a task without).
         tally: f64 [z.tally] = 0.0;
     }

@@ -35,7 +35,7 @@ pub fn future(q: &[f64], n_actions: usize, next: usize, next_terminal: bool) -> 
 /// One run's replacing eligibility trace (SPEC 3.1, `lambda_mf` > 0): e(s, a) per pair, and
 /// the pairs with e > 0 this episode (the first `len` of `pairs`, in the order they entered),
 /// so that an update visits the episode's pairs rather than the whole table.
-pub struct Trace<'a> {
+pub struct Eligibility<'a> {
     /// e(s, a), row-major `[state, action]`.
     pub e: &'a mut [f64],
     /// The pairs with e > 0, as indices into `e`.
@@ -44,7 +44,7 @@ pub struct Trace<'a> {
     pub len: &'a mut u32,
 }
 
-impl Trace<'_> {
+impl Eligibility<'_> {
     /// Learns (s, a, r, s') for the pair `sa` whose TD error is `delta` (r + gamma * future -
     /// Q(s, a), before any update): e(s, a) = 1, every pair with e > 0 gets Q += alpha * delta *
     /// e, then every e is multiplied by `decay` (gamma_mf * lambda_mf), or all are cleared when
@@ -141,7 +141,7 @@ mod tests {
         let mut e = vec![0.0; 6];
         let mut pairs = vec![0u32; 6];
         let mut len = 0;
-        let mut trace = Trace {
+        let mut trace = Eligibility {
             e: &mut e,
             pairs: &mut pairs,
             len: &mut len,
