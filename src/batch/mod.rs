@@ -110,6 +110,8 @@ pub struct Cursor {
     pub window_decisions: u32,
     /// Checkpoint rows written.
     pub checkpoints_written: u32,
+    /// Pairs in the MF eligibility trace (`lambda_mf` > 0 only).
+    pub eligible: u32,
 }
 
 impl Cursor {
@@ -424,6 +426,11 @@ impl Batch {
     /// Run `r`'s task state ([`crate::env::Dynamics`]; empty for a task without).
     pub fn task_state(&self, r: usize) -> &[f64] {
         storage::row(&self.tables.task_state, self.len(), r)
+    }
+
+    /// Run `r`'s tally of the experiment ([`crate::env::Tally`]; empty for a task without).
+    pub fn tally(&self, r: usize) -> &[f64] {
+        storage::row(&self.tables.tally, self.len(), r)
     }
 
     /// Number of states the MB expert of run `r` knows: the start of at least one learned

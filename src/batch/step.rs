@@ -17,6 +17,7 @@ use super::trace::{self, Actor, HumanEvent};
 use super::{Checkpoint, RunView, Settled, initial_state, uniform};
 use crate::arbiter::{self, Arbiter, Draw, Inputs, Mixed, Own, Transition, Visit};
 use crate::env::{End, Spec};
+use crate::expert::mf::Eligibility;
 use crate::expert::{draw, ema, entropy_bits, max_of, mf, normalise_bits, softmax_biased};
 use crate::human::{self, Encounter};
 use crate::params::{
@@ -67,9 +68,11 @@ struct Loop<'r, 'v> {
 impl Visit for Loop<'_, '_> {
     type Output = ();
 
-    /// The loop for rule `A`, the human mode and the action count. The tidy tasks' 7 actions
-    /// get their own copy, whose rows have a length known at compile time (loops unrolled, no
-    /// remainder handling); other action counts share a generic one (`NA` 0: read from the spec).
+    /// The loop for rule `A`, the human mode, the action count, the MF's eligibility trace and
+    /// the per-step trace. The tidy tasks' 7 actions get their own copy, whose rows have a
+    /// length known at compile time (loops unrolled, no remainder handling); other action counts
+    /// share a generic one (`NA` 0: read from the spec), and so do runs with an eligibility trace
+    /// (`ELIGIBILITY`, `lambda_mf` > 0).
     /// A rule that gives a weight runs as [`Mixed`] under `combine = mix`; others ignore it.
     #[inline(always)]
     fn visit<A: Arbiter>(self) {
@@ -93,21 +96,40 @@ impl Loop<'_, '_> {
             human,
             trace,
         } = self;
-        match (spec.n_actions == 7, human, trace) {
-            (true, false, false) => run_loop::<A, false, 7, false>(spec, p, run, end),
-            (true, true, false) => run_loop::<A, true, 7, false>(spec, p, run, end),
-            (false, false, false) => run_loop::<A, false, 0, false>(spec, p, run, end),
-            (false, true, false) => run_loop::<A, true, 0, false>(spec, p, run, end),
-            (true, false, true) => run_loop::<A, false, 7, true>(spec, p, run, end),
-            (true, true, true) => run_loop::<A, true, 7, true>(spec, p, run, end),
-            (false, false, true) => run_loop::<A, false, 0, true>(spec, p, run, end),
-            (false, true, true) => run_loop::<A, true, 0, true>(spec, p, run, end),
+        let eligibility = A::RUNS_MF && !A::LEARNS_MF && p.uses_eligibility();
+        match (
+            spec.n_actions == 7 && !eligibility,
+            human,
+            eligibility,
+            trace,
+        ) {
+            (true, false, _, false) => run_loop::<A, false, 7, false, false>(spec, p, run, end),
+            (true, true, _, false) => run_loop::<A, true, 7, false, false>(spec, p, run, end),
+            (true, false, _, true) => run_loop::<A, false, 7, false, true>(spec, p, run, end),
+            (true, true, _, true) => run_loop::<A, true, 7, false, true>(spec, p, run, end),
+            (false, false, false, false) => {
+                run_loop::<A, false, 0, false, false>(spec, p, run, end)
+            }
+            (false, true, false, false) => run_loop::<A, true, 0, false, false>(spec, p, run, end),
+            (false, false, false, true) => run_loop::<A, false, 0, false, true>(spec, p, run, end),
+            (false, true, false, true) => run_loop::<A, true, 0, false, true>(spec, p, run, end),
+            (false, false, true, false) => run_loop::<A, false, 0, true, false>(spec, p, run, end),
+            (false, true, true, false) => run_loop::<A, true, 0, true, false>(spec, p, run, end),
+            (false, false, true, true) => run_loop::<A, false, 0, true, true>(spec, p, run, end),
+            (false, true, true, true) => run_loop::<A, true, 0, true, true>(spec, p, run, end),
         }
     }
 }
 
-/// [`run_until`] for one arbitration rule, human mode and trace mode.
-fn run_loop<A: Arbiter, const HUMAN: bool, const NA: usize, const TRACE: bool>(
+/// [`run_until`] for one arbitration rule, human mode, action count, MF eligibility trace
+/// and per-step trace mode.
+fn run_loop<
+    A: Arbiter,
+    const HUMAN: bool,
+    const NA: usize,
+    const ELIGIBILITY: bool,
+    const TRACE: bool,
+>(
     spec: &Spec,
     params: &Params,
     run: &mut RunView<'_>,
@@ -118,7 +140,7 @@ fn run_loop<A: Arbiter, const HUMAN: bool, const NA: usize, const TRACE: bool>(
     let babble_end = end.min(babbling);
     if run.cursor.t < babble_end {
         while run.cursor.t < babble_end {
-            one_step::<A, HUMAN, NA, true, false>(spec, params, run, 0);
+            one_step::<A, HUMAN, NA, ELIGIBILITY, true, false>(spec, params, run, 0);
         }
         if run.cursor.t == babbling {
             // End of babbling: back to the start; a pending reset step is dropped (SPEC 7).
@@ -128,6 +150,11 @@ fn run_loop<A: Arbiter, const HUMAN: bool, const NA: usize, const TRACE: bool>(
             // The task's state is drawn afresh for the experiment (SPEC 13).
             if let Some(d) = &world.dynamics {
                 (d.start)(d, run.task_state, run.rng);
+            }
+            // The tally counts the experiment only; the trace ends with the episode (SPEC 3.1).
+            run.tally.fill(0.0);
+            if ELIGIBILITY {
+                eligibility(run).clear();
             }
         }
     }
@@ -146,7 +173,7 @@ fn run_loop<A: Arbiter, const HUMAN: bool, const NA: usize, const TRACE: bool>(
     let mut row_at = next_row(t_exp);
     while run.cursor.t < end {
         t_exp += 1;
-        one_step::<A, HUMAN, NA, false, TRACE>(spec, params, run, t_exp);
+        one_step::<A, HUMAN, NA, ELIGIBILITY, false, TRACE>(spec, params, run, t_exp);
         if t_exp == row_at {
             record_checkpoint(run, t_exp);
             row_at = next_row(t_exp);
@@ -168,6 +195,16 @@ fn world<'s>(spec: &'s Spec, run: &RunView<'s>) -> &'s Spec {
         .map_or(spec, |p| &*p.worlds[usize::from(run.cursor.world)])
 }
 
+/// The run's MF eligibility trace (runs with `lambda_mf` > 0 only).
+#[inline(always)]
+fn eligibility<'r>(run: &'r mut RunView<'_>) -> Eligibility<'r> {
+    Eligibility {
+        e: run.eligibility,
+        pairs: run.eligible,
+        len: &mut run.cursor.eligible,
+    }
+}
+
 /// One step (SPEC 3.4) at experiment step `t_exp` (0 while babbling), recording its trace row
 /// when `TRACE` (never while babbling).
 #[inline(always)]
@@ -175,6 +212,7 @@ fn one_step<
     A: Arbiter,
     const HUMAN: bool,
     const NA: usize,
+    const ELIGIBILITY: bool,
     const BABBLING: bool,
     const TRACE: bool,
 >(
@@ -214,14 +252,24 @@ fn one_step<
                 },
             );
         }
+        if ELIGIBILITY {
+            eligibility(run).clear();
+        }
     } else {
-        act::<A, HUMAN, NA, BABBLING, TRACE>(spec, params, run, s, t_exp);
+        act::<A, HUMAN, NA, ELIGIBILITY, BABBLING, TRACE>(spec, params, run, s, t_exp);
     }
 }
 
 /// Steps 2 to 8 of SPEC 3.4 in a non-goal state.
 #[inline(always)]
-fn act<A: Arbiter, const HUMAN: bool, const NA: usize, const BABBLING: bool, const TRACE: bool>(
+fn act<
+    A: Arbiter,
+    const HUMAN: bool,
+    const NA: usize,
+    const ELIGIBILITY: bool,
+    const BABBLING: bool,
+    const TRACE: bool,
+>(
     spec: &Spec,
     params: &Params,
     run: &mut RunView<'_>,
@@ -273,6 +321,10 @@ fn act<A: Arbiter, const HUMAN: bool, const NA: usize, const BABBLING: bool, con
             && uniform(run.rng) >= p
         {
             arrival_reward = 0.0;
+        }
+        // A task that tallies its steps marks every outcome eventful (no other task pays).
+        if let Some(tally) = &spec.tally {
+            (tally.note)(run.tally, s, a, next, arrival_reward);
         }
     }
     // 11.2: a nuisance human undoes a relevant action before anything learns from it; the
@@ -334,6 +386,30 @@ fn act<A: Arbiter, const HUMAN: bool, const NA: usize, const BABBLING: bool, con
         if !HUMAN && run.q_mf[sa].to_bits() != before.to_bits() {
             run.settled[s].q_changed(Expert::Mf);
         }
+    } else if A::RUNS_MF && ELIGIBILITY {
+        // SPEC 3.1 with lambda_mf > 0: the TD error of (s, a) goes to every traced pair.
+        let future = mf::future(run.q_mf, n_a, next, terminal);
+        let delta = learned + params.gamma_mf * future - run.q_mf[sa];
+        let decay = params.gamma_mf * params.lambda_mf;
+        let settled = &mut *run.settled;
+        let mut trace = Eligibility {
+            e: run.eligibility,
+            pairs: run.eligible,
+            len: &mut run.cursor.eligible,
+        };
+        trace.learn(
+            run.q_mf,
+            sa,
+            delta,
+            params.alpha_mf,
+            decay,
+            terminal,
+            |pair| {
+                if !HUMAN {
+                    settled[pair / n_a].q_changed(Expert::Mf);
+                }
+            },
+        );
     } else if A::RUNS_MF {
         // An `mf` run without a human keeps each Q row's maximum; other runs read the row.
         let future = match (mf_alone::<A>() && !HUMAN, terminal) {

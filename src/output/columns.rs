@@ -67,6 +67,9 @@ pub fn doc(name: &str) -> Option<(&'static str, &'static str)> {
     if let Some(p) = crate::params::param(name) {
         return Some((p.doc, p.unit));
     }
+    if let Some(m) = crate::env::registry::metric(name) {
+        return Some((m.doc, m.unit));
+    }
     DOCS.iter()
         .find(|(n, _, _)| *n == name)
         .map(|(_, d, u)| (*d, *u))

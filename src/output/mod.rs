@@ -218,6 +218,19 @@ pub fn runs_batch(batch: &Batch) -> Result<RecordBatch, OutputError> {
         s.iter().map(|r| r.reward_after_change()),
     );
     cols.opt_int("recovery_steps", s.iter().map(|r| r.recovery_steps()));
+    // Every task's metric columns, null for runs of other tasks (SPEC 13).
+    let own = crate::env::registry::find(&task).map_or(&[][..], |t| t.metrics);
+    for m in crate::env::registry::metrics() {
+        let mine = own.iter().any(|o| o.name == m.name);
+        let values = (0..batch.len()).map(|r| {
+            if mine {
+                (m.value)(batch.tally(r))
+            } else {
+                None
+            }
+        });
+        cols.opt_f64(m.name, values);
+    }
     cols.int("vi_calls", s.iter().map(|r| r.vi_calls));
     cols.int("vi_sweeps", s.iter().map(|r| r.vi_sweeps));
     cols.int("vi_capped", s.iter().map(|r| r.vi_capped));

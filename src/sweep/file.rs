@@ -1529,6 +1529,8 @@ impl Sweep {
                 Key::all()
                     .find(|k| because.contains(k.name()) && self.source(*k).is_some())
                     .unwrap_or(Key::Task)
+            } else if let ConfigError::Incompatible { name, .. } = &e {
+                Key::lookup(name).unwrap_or(Key::Task)
             } else if let ConfigError::InteractionUnsupported { .. } = &e {
                 Key::INTERACTION
             } else {
