@@ -7,6 +7,9 @@
 //!   1 or 2 threads: the engine's overhead per run and its scaling across cores.
 //! - `naive/<controller>` against `engine/<controller>`: one whole tidy1 run (11,000 steps) by the
 //!   naive reference of `tests/naive` and by the batch engine (one run, one thread).
+//! - `rules/<env>/<controller>`: the arbitration rules of SPEC 12 (`fixed`, `reliability`, `vpi`,
+//!   and `ec`, `fixed`, `reliability` with `combine = mix`) beside `ec`, on tidy1 and twostep,
+//!   64 runs on one thread, steady state (twostep's 402-step runs: the whole run).
 //!
 //! Run: `cargo bench --bench step` (add a filter such as `-- step/tidy1/ec` to select).
 
@@ -19,7 +22,7 @@ use std::sync::Arc;
 
 use criterion::{BatchSize, BenchmarkId, Criterion, SamplingMode, Throughput};
 use mbmf::batch::Batch;
-use mbmf::params::Controller;
+use mbmf::params::{Combine, Controller};
 
 use common::{CONTROLLERS, Phase};
 
@@ -134,9 +137,45 @@ fn naive_baseline(c: &mut Criterion) {
     group.finish();
 }
 
+fn rules(c: &mut Criterion) {
+    let one = common::pool(1);
+    for label in ["tidy1", "twostep"] {
+        let spec = Arc::new(mbmf::env::load(label).expect("built in"));
+        let mut group = c.benchmark_group(format!("rules/{label}"));
+        group.sampling_mode(SamplingMode::Flat);
+        for (controller, combine) in [
+            (Controller::Ec, Combine::Select),
+            (Controller::Fixed, Combine::Select),
+            (Controller::Reliability, Combine::Select),
+            (Controller::Vpi, Combine::Select),
+            (Controller::Ec, Combine::Mix),
+            (Controller::Fixed, Combine::Mix),
+            (Controller::Reliability, Combine::Mix),
+        ] {
+            let params = mbmf::params::Params {
+                combine,
+                babbling: mbmf::env::registry::default_babbling(label),
+                ..common::params(&spec, controller)
+            };
+            let total = u64::from(params.babbling) + u64::from(params.steps);
+            let window = 1000.min(total);
+            let template = common::prepared(&spec, params, RUNS, total - window, 2);
+            let name = match combine {
+                Combine::Select => controller.name().to_string(),
+                Combine::Mix => format!("{}-mix", controller.name()),
+            };
+            group.throughput(Throughput::Elements(RUNS as u64 * window));
+            group.bench_with_input(BenchmarkId::new(name, "steady"), &template, |b, t| {
+                time_window(b, t, &one, window)
+            });
+        }
+        group.finish();
+    }
+}
+
 criterion::criterion_group! {
     name = benches;
     config = common::quick();
-    targets = per_environment, batch_sizes, naive_baseline
+    targets = per_environment, batch_sizes, naive_baseline, rules
 }
 criterion::criterion_main!(benches);

@@ -21,9 +21,11 @@ fn normal_pdf(z: f64) -> f64 {
 }
 
 /// VPI of every action (SPEC 12.4) from the MF means `q` and variances `var` of one state,
-/// written into `out`. a1 is the best mean, a2 the second (ties by the lower action index). At
+/// written into `out`: the reference [`plan`] is checked against (a decision needs only the
+/// comparisons). a1 is the best mean, a2 the second (ties by the lower action index). At
 /// sigma = 0 a VPI is its limit, 0 (a certain value brings no information). With a single
 /// action there is no alternative to learn about: 0.
+#[cfg(test)]
 pub fn vpi(q: &[f64], var: &[f64], out: &mut [f64]) {
     let n = q.len();
     if n < 2 {
@@ -54,6 +56,64 @@ pub fn vpi(q: &[f64], var: &[f64], out: &mut [f64]) {
             (q[a] - q[a1]) * (1.0 - normal_cdf(z)) + sigma * normal_pdf(z)
         };
     }
+}
+
+/// Whether each action's VPI (as [`vpi`] computes it, bit for bit) reaches `threshold`: 1.0 or
+/// 0.0 in `flags`; returns how many do. A decision needs only these comparisons, so a VPI is
+/// computed no further than its comparison needs: both formulas are a non-positive term plus
+/// sigma phi(z), and sigma phi(z) <= sigma phi(0), so where sigma phi(0) (and then sigma phi(z))
+/// is below the threshold the VPI is too, and the normal CDF (an erfc, most of the rule's cost)
+/// is not evaluated. Rounding is monotone, so the bounds hold for the computed values as well.
+pub fn plan(q: &[f64], var: &[f64], threshold: f64, flags: &mut [f64]) -> usize {
+    let n = q.len();
+    if n < 2 {
+        let by_mb = 0.0 >= threshold;
+        flags.fill(if by_mb { 1.0 } else { 0.0 });
+        return if by_mb { n } else { 0 };
+    }
+    let mut a1 = 0;
+    for a in 1..n {
+        if q[a] > q[a1] {
+            a1 = a;
+        }
+    }
+    let mut a2 = usize::from(a1 == 0);
+    for a in 0..n {
+        if a != a1 && q[a] > q[a2] {
+            a2 = a;
+        }
+    }
+    let pdf_at_0 = normal_pdf(0.0);
+    let mut planned = 0;
+    for a in 0..n {
+        let sigma = var[a].sqrt();
+        let by_mb = if sigma == 0.0 {
+            0.0 >= threshold
+        } else if sigma * pdf_at_0 < threshold {
+            false
+        } else {
+            // The linear term and z of `vpi`'s two formulas, in its order of operations.
+            let (linear, z) = if a == a1 {
+                let d = q[a2] - q[a1];
+                (d, d / sigma)
+            } else {
+                (q[a] - q[a1], (q[a1] - q[a]) / sigma)
+            };
+            let tail = sigma * normal_pdf(z);
+            if tail < threshold {
+                false
+            } else if a == a1 {
+                linear * normal_cdf(z) + tail >= threshold
+            } else {
+                linear * (1.0 - normal_cdf(z)) + tail >= threshold
+            }
+        };
+        flags[a] = if by_mb { 1.0 } else { 0.0 };
+        if by_mb {
+            planned += 1;
+        }
+    }
+    planned
 }
 
 /// One Kalman update of a mean `q` and variance `v` towards the target `y` (SPEC 12.4):
@@ -98,13 +158,7 @@ impl Arbiter for Vpi {
         let n = inputs.n_actions;
         let threshold = inputs.params.vpi_tau * inputs.own.run[RBAR];
         let (var, flags) = inputs.own.pairs[block(n, inputs.state)].split_at_mut(n);
-        vpi(&inputs.q_mf[inputs.row.clone()], var, flags);
-        let mut planned = 0usize;
-        for f in flags.iter_mut() {
-            let by_mb = *f >= threshold;
-            planned += usize::from(by_mb);
-            *f = if by_mb { 1.0 } else { 0.0 };
-        }
+        let planned = plan(&inputs.q_mf[inputs.row.clone()], var, threshold, flags);
         Choice {
             use_mb: planned > 0,
             p_mb: planned as f64 / n as f64,
@@ -176,6 +230,50 @@ mod tests {
         // Certain values: no information to gain anywhere; a single action neither.
         check(&[0.2, 0.0], &[0.0, 0.0], &[0.0, 0.0]);
         check(&[0.2], &[1.0], &[0.0]);
+    }
+
+    #[test]
+    fn the_plan_flags_exactly_the_actions_whose_vpi_reaches_the_threshold() {
+        // Inputs around every branch: certain values, small and large variances, ties, VPIs
+        // just below and above the threshold, negative and NaN thresholds.
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for case in 0..20_000 {
+            let n = 1 + case % 7;
+            let q: Vec<f64> = (0..n).map(|_| (next() * 4.0).round() / 4.0 - 0.5).collect();
+            let var: Vec<f64> = (0..n)
+                .map(|_| match (next() * 4.0) as u32 {
+                    0 => 0.0,
+                    1 => next() * 1e-4,
+                    _ => next(),
+                })
+                .collect();
+            let mut values = vec![0.0; n];
+            vpi(&q, &var, &mut values);
+            let thresholds = [
+                0.0,
+                -0.1,
+                f64::NAN,
+                next() * 0.2,
+                values[case % n],
+                values[case % n] + f64::EPSILON,
+            ];
+            for threshold in thresholds {
+                let mut flags = vec![f64::NAN; n];
+                let planned = plan(&q, &var, threshold, &mut flags);
+                let expected: Vec<f64> = values
+                    .iter()
+                    .map(|&v| if v >= threshold { 1.0 } else { 0.0 })
+                    .collect();
+                assert_eq!(flags, expected, "{q:?} {var:?} at {threshold}");
+                assert_eq!(planned, expected.iter().filter(|&&f| f == 1.0).count());
+            }
+        }
     }
 
     #[test]

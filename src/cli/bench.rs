@@ -13,7 +13,7 @@ use crate::bench::{
     memory_per_instance, steady_rate, write_growth,
 };
 use crate::env;
-use crate::params::{Controller, Params};
+use crate::params::{Combine, Controller, Params};
 
 /// `mbmf bench`.
 #[derive(Debug, Clone, Args)]
@@ -98,6 +98,38 @@ fn headline(cores: usize) -> anyhow::Result<()> {
             runs,
             thousands(rate)
         );
+    }
+
+    // The arbitration rules of SPEC 12 beside EC, on tidy1 and on the two-step task (whose runs
+    // are 402 steps: the window is the whole run).
+    for task in ["tidy1", "twostep"] {
+        let spec = Arc::new(env::load(task)?);
+        outln!();
+        outln!("{task}, steady state, one thread, 1024 runs (SPEC 12's rules):");
+        outln!("  {:<16} {:>16}", "controller", "steps/s");
+        for (controller, combine) in [
+            (Controller::Ec, Combine::Select),
+            (Controller::Fixed, Combine::Select),
+            (Controller::Reliability, Combine::Select),
+            (Controller::Vpi, Combine::Select),
+            (Controller::Ec, Combine::Mix),
+            (Controller::Fixed, Combine::Mix),
+            (Controller::Reliability, Combine::Mix),
+        ] {
+            let params = Params {
+                controller,
+                combine,
+                steps: env::registry::default_steps(task),
+                babbling: env::registry::default_babbling(task),
+                ..Params::default()
+            };
+            let rate = steady_rate(&spec, params, 1024, &[1], 1000, 5)?[0];
+            let name = match combine {
+                Combine::Select => controller.name().to_string(),
+                Combine::Mix => format!("{} (mix)", controller.name()),
+            };
+            outln!("  {name:<16} {:>16}", thousands(rate));
+        }
     }
 
     let mut threads = vec![1, 2];
