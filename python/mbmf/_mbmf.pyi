@@ -1,5 +1,5 @@
 # The native module (python/src/lib.rs); use the wrappers in mbmf/__init__.py.
-from typing import Any, Callable
+from typing import Any, Callable, final
 
 __all__ = [
     "run",
@@ -45,6 +45,7 @@ def stream(
     spaces: str | None = None,
 ) -> tuple[Stream, list[str]]: ...
 
+@final
 class Stream:
     def __iter__(self) -> Stream: ...
     def __next__(self) -> tuple[Any, Any]: ...
@@ -63,6 +64,7 @@ def stats(
     data: Any, by: str, metric: str, filters: list[str], allow_incomplete: bool
 ) -> tuple[Any, Any, list[str], list[str], list[str]]: ...
 
+@final
 class VecEnv:
     def __new__(
         cls,

@@ -66,9 +66,10 @@ def test_pareto_equals_the_command_line(dataset, tmp_path, mbmf_bin, options) ->
     for g in groups:
         for row in g["front"]:
             match = fronts
-            for key, value in {**g["group"], "controller": row.get("controller")}.items():
-                if value is not None:
-                    match = match.filter(pl.col(key).cast(pl.String) == value)
+            # The group's values and the configuration's varying parameters (text columns).
+            for key, value in {**g["group"], **row}.items():
+                if key in ("controller", "interaction") and value is not None:
+                    match = match.filter(pl.col(key) == value)
             assert match.height == 1, row
             mine = match.row(0, named=True)
             assert mine["n"] == row["n"]
