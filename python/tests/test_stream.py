@@ -41,3 +41,31 @@ def test_stream_checks_its_inputs_when_called() -> None:
         mbmf.stream(controller="ec", alpha_mf=-1)
     with pytest.raises(TypeError, match="stream\\(\\) got an unexpected keyword argument 'stps'"):
         mbmf.stream(controller="ec", stps=10)
+
+
+LONG_STREAM = """
+import sys
+import mbmf
+stream = mbmf.stream(controller="ec", runs=100000, steps=100000, batch_size=1)
+try:
+    for i, part in enumerate(stream):
+        if i == 0:
+            print("first", flush=True)
+except KeyboardInterrupt:
+    print("interrupted", flush=True)
+    sys.exit(0)
+sys.exit(1)
+"""
+
+
+def test_ctrl_c_stops_a_stream() -> None:
+    import signal
+    import subprocess
+    import sys
+
+    child = subprocess.Popen([sys.executable, "-c", LONG_STREAM], stdout=subprocess.PIPE, text=True)
+    assert child.stdout is not None
+    assert child.stdout.readline().strip() == "first"
+    child.send_signal(signal.SIGINT)
+    assert child.stdout.readline().strip() == "interrupted"
+    assert child.wait(timeout=60) == 0
