@@ -424,8 +424,9 @@ impl Run {
     /// runs and series tables of every finished batch of runs, in run order, with the columns
     /// of runs.parquet and series.parquet (their rows are those `mbmf run` writes, but for
     /// `wall_time_s`). `each` returning [`ControlFlow::Break`] ends the work at the next stride,
-    /// as `stop` does, with [`RunError::Interrupted`]. Memory is planned as [`Run::size`] does;
-    /// nothing is refused for disk space. Returns the runs simulated.
+    /// as `stop` does, with [`RunError::Interrupted`], and `each` is not called again. Memory
+    /// is planned as [`Run::size`] does; nothing is refused for disk space. Returns the runs
+    /// simulated.
     pub fn stream(
         self,
         stop: &AtomicBool,
@@ -469,6 +470,10 @@ impl<F: FnMut([RecordBatch; 2]) -> ControlFlow<()>> pipeline::Writer for Handed<
     type Error = OutputError;
 
     fn write(&mut self, batch: &Batch, profiles: &[usize]) -> Result<(), OutputError> {
+        // A batch that finished with the stride that saw the stop is not handed over.
+        if self.halted.get() {
+            return Ok(());
+        }
         let tables = pipeline::tables(batch, self.seeds, &[], profiles)?;
         if (self.each)(tables).is_break() {
             self.halted.set(true);
