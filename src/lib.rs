@@ -33,4 +33,5 @@ pub mod schedule;
 pub mod sizing;
 pub mod suggest;
 pub mod sweep;
+pub mod vec_env;
 pub mod whole_file;

@@ -22,9 +22,13 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
+use std::cell::Cell;
+use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
+
+use arrow::record_batch::RecordBatch;
 
 use crate::batch::{Batch, RunConfig};
 use crate::env::Spec;
@@ -393,23 +397,11 @@ impl Open {
         };
         let mut summary = Summary::new(&job.out);
         let started = std::time::Instant::now();
-        // Windows are whole batches, so batches are cut where one call over every run cuts them.
-        let window = run.batch_size.saturating_mul(BATCHES_PER_WINDOW) as u64;
-        let mut start = 0;
-        while start < total {
-            let end = start.saturating_add(window).min(total);
-            let group = pipeline::Group {
-                configs: (start..end).map(|i| job.config_at(i)).collect(),
-                schedules: vec![0; (end - start) as usize],
-                profiles: Vec::new(),
-            };
-            let progress = |n| {
-                progress(n);
-                pipeline::unless_stopped(stop)
-            };
-            pipeline_job.simulate(&job.spec, &group, progress, |batch| summary.add(batch))?;
-            start = end;
-        }
+        let progress = |n| {
+            progress(n);
+            pipeline::unless_stopped(stop)
+        };
+        windows(job, &mut pipeline_job, progress, |batch| summary.add(batch))?;
         let rows = summary.rows()?;
         let ([runs_staged, series_staged], trace_staged) = pipeline_job.writer.finish_all()?;
         // The last chance to stop with nothing written: after the commit the run is complete.
@@ -437,6 +429,97 @@ impl Open {
             warnings: run.warnings,
         })
     }
+}
+
+impl Run {
+    /// Simulates every run as [`Open::simulate`] does, writing no file: `each` is handed the
+    /// runs and series tables of every finished batch of runs, in run order, with the columns
+    /// of runs.parquet and series.parquet (their rows are those `mbmf run` writes, but for
+    /// `wall_time_s`). `each` returning [`ControlFlow::Break`] ends the work at the next stride,
+    /// as `stop` does, with [`RunError::Interrupted`], and `each` is not called again. Memory
+    /// is planned as [`Run::size`] does; nothing is refused for disk space. Returns the runs
+    /// simulated.
+    pub fn stream(
+        self,
+        stop: &AtomicBool,
+        mut progress: impl FnMut(u64),
+        mut each: impl FnMut([RecordBatch; 2]) -> ControlFlow<()>,
+    ) -> Result<u64, RunError> {
+        let job = &self.job;
+        let batch_size = pipeline::plan_batch_size(&job.spec, &job.firsts(), job.batch_size)?;
+        let schedules = [job.schedule.clone()];
+        let halted = Cell::new(false);
+        let mut pipeline_job = pipeline::Job {
+            schedules: &schedules,
+            batch_size,
+            writer: Handed {
+                seeds: u64::from(job.runs),
+                each: &mut each,
+                halted: &halted,
+            },
+        };
+        let progress = |n| {
+            progress(n);
+            if halted.get() {
+                ControlFlow::Break(())
+            } else {
+                pipeline::unless_stopped(stop)
+            }
+        };
+        windows(job, &mut pipeline_job, progress, |_| Ok(()))?;
+        Ok(job.total())
+    }
+}
+
+/// The writer of [`Run::stream`]: hands each finished batch's tables to the caller.
+struct Handed<'a, F> {
+    seeds: u64,
+    each: &'a mut F,
+    halted: &'a Cell<bool>,
+}
+
+impl<F: FnMut([RecordBatch; 2]) -> ControlFlow<()>> pipeline::Writer for Handed<'_, F> {
+    type Error = OutputError;
+
+    fn write(&mut self, batch: &Batch, profiles: &[usize]) -> Result<(), OutputError> {
+        // A batch that finished with the stride that saw the stop is not handed over.
+        if self.halted.get() {
+            return Ok(());
+        }
+        let tables = pipeline::tables(batch, self.seeds, &[], profiles)?;
+        if (self.each)(tables).is_break() {
+            self.halted.set(true);
+        }
+        Ok(())
+    }
+}
+
+/// Simulates every run of `job` in windows of whole batches into `pipeline_job`'s writer, so
+/// that batches are cut where one call over every run cuts them and only a window's
+/// configurations are in memory.
+fn windows<W: pipeline::Writer>(
+    job: &Job,
+    pipeline_job: &mut pipeline::Job<'_, W>,
+    mut progress: impl FnMut(u64) -> ControlFlow<()>,
+    mut observe: impl FnMut(&Batch) -> Result<(), RunError>,
+) -> Result<(), RunError>
+where
+    RunError: From<W::Error>,
+{
+    let total = job.total();
+    let window = pipeline_job.batch_size.saturating_mul(BATCHES_PER_WINDOW) as u64;
+    let mut start = 0;
+    while start < total {
+        let end = start.saturating_add(window).min(total);
+        let group = pipeline::Group {
+            configs: (start..end).map(|i| job.config_at(i)).collect(),
+            schedules: vec![0; (end - start) as usize],
+            profiles: Vec::new(),
+        };
+        pipeline_job.simulate(&job.spec, &group, &mut progress, &mut observe)?;
+        start = end;
+    }
+    Ok(())
 }
 
 /// Checks, sizes, opens and simulates `job` in one call: [`Run::new`], [`Run::size`],

@@ -165,3 +165,90 @@ fn warnings_come_back_as_data_and_refusals_are_usage_errors() {
         "{error:?}"
     );
 }
+
+/// The rows of record batches, as [`file_rows`] gives a file's.
+fn batch_rows(batches: &[arrow::record_batch::RecordBatch], skip: &[&str]) -> Vec<Row> {
+    use arrow::util::display::array_value_to_string;
+    let mut out = Vec::new();
+    for batch in batches {
+        let schema = batch.schema();
+        for r in 0..batch.num_rows() {
+            let mut row = Row::new();
+            for (field, col) in schema.fields().iter().zip(batch.columns()) {
+                if skip.contains(&field.name().as_str()) {
+                    continue;
+                }
+                let v = if col.is_null(r) {
+                    "null".to_string()
+                } else {
+                    array_value_to_string(col, r).unwrap()
+                };
+                row.insert(field.name().clone(), v);
+            }
+            out.push(row);
+        }
+    }
+    out
+}
+
+#[test]
+fn the_stream_hands_over_the_rows_the_files_hold_batch_by_batch() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("lib");
+    let done = execute(job(&out), &AtomicBool::new(false), |_| {}).expect("the job runs");
+    // 8 runs in batches of 3: 3, 3, 2, in run order.
+    let streamed = Run::new(Job {
+        batch_size: 3,
+        ..job(&dir.path().join("unused"))
+    })
+    .unwrap();
+    let (mut runs, mut series) = (Vec::new(), Vec::new());
+    let n = streamed
+        .stream(
+            &AtomicBool::new(false),
+            |_| {},
+            |[r, s]| {
+                runs.push(r);
+                series.push(s);
+                std::ops::ControlFlow::Continue(())
+            },
+        )
+        .expect("the job runs");
+    assert_eq!(n, 8);
+    assert!(
+        !dir.path().join("unused").exists(),
+        "a stream writes nothing"
+    );
+    let sizes: Vec<usize> = runs.iter().map(|b| b.num_rows()).collect();
+    assert_eq!(sizes, [3, 3, 2]);
+    assert_same_rows(
+        "runs",
+        &batch_rows(&runs, ABOUT_THE_WRITING),
+        &file_rows(&done.files[0], ABOUT_THE_WRITING),
+    );
+    assert_same_rows(
+        "series",
+        &batch_rows(&series, ABOUT_THE_WRITING),
+        &file_rows(&done.files[1], ABOUT_THE_WRITING),
+    );
+    // A callback that breaks stops the job after that batch.
+    let mut seen = 0;
+    let stopped = Run::new(Job {
+        batch_size: 3,
+        ..job(&dir.path().join("unused"))
+    })
+    .unwrap()
+    .stream(
+        &AtomicBool::new(false),
+        |_| {},
+        |_| {
+            seen += 1;
+            std::ops::ControlFlow::Break(())
+        },
+    );
+    assert!(
+        matches!(stopped, Err(RunError::Interrupted(_))),
+        "{stopped:?}"
+    );
+    assert_eq!(seen, 1);
+}

@@ -1,9 +1,24 @@
 # Hand-written stubs of the mbmf package, checked against the module by
 # `python -m mypy.stubtest mbmf` (scripts/python-package.sh).
 import os
-from typing import Any, NamedTuple, Sequence
+from typing import Any, Iterator, NamedTuple, Sequence
 
-__all__ = ["Result", "SweepReport", "run", "sweep", "read", "min_budget", "parameters", "CONTROLLERS", "OUTPUTS"]
+__all__ = [
+    "Result",
+    "Stats",
+    "SweepReport",
+    "VecEnv",
+    "run",
+    "stream",
+    "sweep",
+    "read",
+    "pareto",
+    "stats",
+    "min_budget",
+    "parameters",
+    "CONTROLLERS",
+    "OUTPUTS",
+]
 
 CONTROLLERS: tuple[str, ...]
 OUTPUTS: tuple[str, ...]
@@ -25,8 +40,35 @@ def run(
     change: Sequence[str] = (),
     progress: bool | None = None,
     output: str = "arrow",
+    key_states: str | os.PathLike[str] | None = None,
+    spaces: str | os.PathLike[str] | None = None,
     **params: Any,
 ) -> Result: ...
+def stream(
+    task: str = "tidy1",
+    controller: str | Sequence[str] = ("mf", "mb", "rnd", "ec"),
+    runs: int = 20,
+    seed: int = 1,
+    *,
+    batch_size: int = 4096,
+    threads: int | None = None,
+    change: Sequence[str] = (),
+    output: str = "arrow",
+    key_states: str | os.PathLike[str] | None = None,
+    spaces: str | os.PathLike[str] | None = None,
+    **params: Any,
+) -> Iterator[Result]: ...
+
+class _Stream:
+    native: Any
+    output: str
+    def __init__(self, native: Any, output: str) -> None: ...
+    def __iter__(self) -> _Stream: ...
+    def __next__(self) -> Result: ...
+    def close(self) -> None: ...
+    def __enter__(self) -> _Stream: ...
+    def __exit__(self, *exc: object) -> None: ...
+
 class SweepReport(NamedTuple):
     out: str
     total: int
@@ -72,3 +114,52 @@ def min_budget(
     output: str = "arrow",
 ) -> Any: ...
 def parameters() -> list[tuple[str, str, list[str], str, str, str]]: ...
+def pareto(
+    data: Any,
+    objectives: Sequence[str] | str | None = None,
+    *,
+    by: Sequence[str] | str = (),
+    where: Sequence[str] = (),
+    allow_incomplete: bool = False,
+    output: str = "arrow",
+) -> Any: ...
+
+class Stats(NamedTuple):
+    groups: Any
+    pairs: Any
+    also_varying: list[str]
+    left_out: list[str]
+
+def stats(
+    data: Any,
+    by: str,
+    metric: str = "total_reward",
+    *,
+    where: Sequence[str] = (),
+    allow_incomplete: bool = False,
+    output: str = "arrow",
+) -> Stats: ...
+
+class VecEnv:
+    task: str
+    def __init__(
+        self,
+        task: str = "tidy1",
+        num_envs: int = 1,
+        seed: int = 1,
+        *,
+        max_episode_steps: int | None = None,
+        key_states: str | os.PathLike[str] | None = None,
+        spaces: str | os.PathLike[str] | None = None,
+        **params: Any,
+    ) -> None: ...
+    @property
+    def num_envs(self) -> int: ...
+    @property
+    def n_states(self) -> int: ...
+    @property
+    def n_actions(self) -> int: ...
+    @property
+    def state_names(self) -> list[str]: ...
+    def reset(self, seed: int | None = None) -> Any: ...
+    def step(self, actions: Any) -> tuple[Any, Any, Any, Any, dict[str, Any]]: ...

@@ -5,9 +5,12 @@
 //! Arrow PyCapsule interface). The Python half (`mbmf/__init__.py`) adds the progress bar, the
 //! output type and the docstrings.
 
+use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
+use std::sync::Mutex;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::mpsc::{Receiver, RecvTimeoutError};
 use std::time::Duration;
 
 use arrow::datatypes::SchemaRef;
@@ -17,6 +20,7 @@ use mbmf::error::Usage;
 use mbmf::params::{ConfigError, Controller, Kind, PARAMS, Param, Params, Profile, Value};
 use mbmf::run::{Job, RunError};
 use mbmf::schedule::Schedule;
+use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1};
 use pyo3::exceptions::{PyKeyboardInterrupt, PyRuntimeError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyString};
@@ -174,6 +178,7 @@ fn unknown_keyword(function: &str, word: &str, known: &[&str]) -> PyErr {
 /// profile's human first, the keywords over it, a custom human when human fields are set
 /// without a profile. Returns them with the names of the parameters set.
 fn controller_params(
+    function: &str,
     task: &str,
     controllers: &[Controller],
     params: Option<&Bound<'_, PyDict>>,
@@ -187,7 +192,7 @@ fn controller_params(
             let Some(param) = find_param(&word) else {
                 let mut known: Vec<&str> = keyword_params().map(keyword).collect();
                 known.extend_from_slice(other_keywords);
-                return Err(unknown_keyword("run", &word, &known));
+                return Err(unknown_keyword(function, &word, &known));
             };
             let value = to_value(param, &word, &obj)?;
             if matches!(param.kind, Kind::Profile) {
@@ -241,8 +246,10 @@ fn config_error(error: ConfigError) -> PyErr {
     }
 }
 
-/// Loads a task: tidy1, tidy2, or json:PATH with keyStates.txt and spaces.txt beside it.
-fn load_task(task: &str) -> PyResult<mbmf::env::Spec> {
+/// Loads a task: a registered one, or json:PATH with keyStates.txt and spaces.txt beside it
+/// unless `files` (key_states, spaces) name them, as `--key-states` and `--spaces` do.
+fn load_task(task: &str, files: (Option<PathBuf>, Option<PathBuf>)) -> PyResult<mbmf::env::Spec> {
+    let (key_states, spaces) = files;
     if let Some(path) = task.strip_prefix("json:") {
         if path.is_empty() {
             return Err(PyValueError::new_err(
@@ -250,8 +257,24 @@ fn load_task(task: &str) -> PyResult<mbmf::env::Spec> {
                  (e.g. json:data/navworld/realisticNavWorld.json)",
             ));
         }
-        let paths = mbmf::env::JsonPaths::beside(path);
+        let mut paths = mbmf::env::JsonPaths::beside(path);
+        if let Some(k) = key_states {
+            paths.key_states = k;
+        }
+        if let Some(s) = spaces {
+            paths.spaces = s;
+        }
         return mbmf::env::json::load(&paths, task).map_err(|e| PyValueError::new_err(chain(&e)));
+    }
+    if key_states.is_some() || spaces.is_some() {
+        let word = if key_states.is_some() {
+            "key_states"
+        } else {
+            "spaces"
+        };
+        return Err(PyValueError::new_err(format!(
+            "{word} only applies to json:PATH tasks, not '{task}': the built-in tasks have no files"
+        )));
     }
     mbmf::env::load(task).map_err(|e| PyValueError::new_err(chain(&e)))
 }
@@ -339,24 +362,23 @@ fn supervised<T: Send>(
     })
 }
 
-/// The Python-facing `run`; see `mbmf.run` for the documentation.
-#[pyfunction]
-#[pyo3(name = "run", signature = (task, controller, runs, seed, out, force, batch_size, threads, change, progress, params))]
+/// The inputs `run` and `stream` share, checked: the job (into `out`) and the worker threads.
 #[allow(clippy::too_many_arguments)]
-fn run_job(
+fn job_of(
     py: Python<'_>,
+    function: &str,
     task: &str,
+    files: (Option<PathBuf>, Option<PathBuf>),
     controller: &Bound<'_, PyAny>,
     runs: &Bound<'_, PyAny>,
     seed: &Bound<'_, PyAny>,
-    out: Option<PathBuf>,
-    force: bool,
     batch_size: &Bound<'_, PyAny>,
     threads: Option<&Bound<'_, PyAny>>,
-    change: Vec<String>,
-    progress: Option<&Bound<'_, PyAny>>,
+    change: &[String],
     params: Option<&Bound<'_, PyDict>>,
-) -> PyResult<(PyTable, PyTable, Vec<String>)> {
+    others: &[&str],
+    out: PathBuf,
+) -> PyResult<(Job, Option<usize>)> {
     let controllers: Vec<Controller> = match controller.cast::<PyString>() {
         Ok(s) => s
             .to_str()?
@@ -381,7 +403,42 @@ fn run_job(
     let threads = threads
         .map(|t| whole("threads", t, 1, 4096).map(|n| n as usize))
         .transpose()?;
-    let spec = load_task(task)?;
+    let spec = load_task(task, files)?;
+    let (configs, set) = controller_params(function, task, &controllers, params, others)?;
+    let schedule = Schedule::from_events(change.iter().map(String::as_str))
+        .map_err(|e| PyValueError::new_err(format!("change: {}", chain(&e))))?;
+    let job = Job {
+        runs,
+        seed,
+        schedule,
+        batch_size,
+        set,
+        command: format!("mbmf.{function} (Python) task={task}"),
+        ..Job::new(task, Arc::new(spec), configs, out)
+    };
+    Ok((job, threads))
+}
+
+/// The Python-facing `run`; see `mbmf.run` for the documentation.
+#[pyfunction]
+#[pyo3(name = "run", signature = (task, controller, runs, seed, out, force, batch_size, threads, change, progress, params, key_states = None, spaces = None))]
+#[allow(clippy::too_many_arguments)]
+fn run_job(
+    py: Python<'_>,
+    task: &str,
+    controller: &Bound<'_, PyAny>,
+    runs: &Bound<'_, PyAny>,
+    seed: &Bound<'_, PyAny>,
+    out: Option<PathBuf>,
+    force: bool,
+    batch_size: &Bound<'_, PyAny>,
+    threads: Option<&Bound<'_, PyAny>>,
+    change: Vec<String>,
+    progress: Option<&Bound<'_, PyAny>>,
+    params: Option<&Bound<'_, PyDict>>,
+    key_states: Option<PathBuf>,
+    spaces: Option<PathBuf>,
+) -> PyResult<(PyTable, PyTable, Vec<String>)> {
     let others = [
         "task",
         "controller",
@@ -394,10 +451,9 @@ fn run_job(
         "change",
         "progress",
         "output",
+        "key_states",
+        "spaces",
     ];
-    let (configs, set) = controller_params(task, &controllers, params, &others)?;
-    let schedule = Schedule::from_events(change.iter().map(String::as_str))
-        .map_err(|e| PyValueError::new_err(format!("change: {}", chain(&e))))?;
     // Without `out`, the files are written to a private folder and read back.
     let scratch = match out {
         Some(_) => None,
@@ -406,16 +462,22 @@ fn run_job(
         })?),
     };
     let out = out.unwrap_or_else(|| scratch.as_ref().expect("made above").path().to_path_buf());
-    let job = Job {
+    let (mut job, threads) = job_of(
+        py,
+        "run",
+        task,
+        (key_states, spaces),
+        controller,
         runs,
         seed,
-        schedule,
-        force,
         batch_size,
-        set,
-        command: format!("mbmf.run (Python) task={task}"),
-        ..Job::new(task, Arc::new(spec), configs, &out)
-    };
+        threads,
+        &change,
+        params,
+        &others,
+        out,
+    )?;
+    job.force = force;
     let mut checked = mbmf::run::Run::new(job).map_err(run_error)?;
     let warnings = checked.warnings().to_vec();
     checked.size().map_err(run_error)?;
@@ -444,6 +506,155 @@ fn run_job(
     ))
 }
 
+/// What the simulating thread of a [`Stream`] sends: each finished batch's tables, then an
+/// error if the work failed.
+type Streamed = Result<[RecordBatch; 2], RunError>;
+
+/// The iterator `mbmf.stream` returns: the runs and series tables of each finished batch of
+/// runs, simulated by a thread of its own (without the GIL) at most two batches ahead of the
+/// reader. Dropping it, Ctrl-C in `__next__` or `close()` stops the simulation within a stride.
+#[pyclass(module = "mbmf._mbmf")]
+struct Stream {
+    batches: Mutex<Receiver<Streamed>>,
+    stop: Arc<AtomicBool>,
+    total: u64,
+}
+
+#[pymethods]
+impl Stream {
+    fn __iter__(slf: PyRef<'_, Self>) -> PyRef<'_, Self> {
+        slf
+    }
+
+    fn __next__(&self, py: Python<'_>) -> PyResult<Option<(PyTable, PyTable)>> {
+        loop {
+            let next = py.detach(|| {
+                self.batches
+                    .lock()
+                    .map(|b| b.recv_timeout(POLL))
+                    .map_err(|_| ())
+            });
+            let next = next.map_err(|_| PyRuntimeError::new_err("the stream failed earlier"))?;
+            match next {
+                Ok(Ok([runs, series])) => {
+                    let (rs, ss) = (runs.schema(), series.schema());
+                    return Ok(Some((
+                        PyTable::try_new(vec![runs], rs)?,
+                        PyTable::try_new(vec![series], ss)?,
+                    )));
+                }
+                Ok(Err(RunError::Interrupted(_))) => return Ok(None),
+                Ok(Err(e)) => return Err(run_error(e)),
+                Err(RecvTimeoutError::Disconnected) => return Ok(None),
+                Err(RecvTimeoutError::Timeout) => {
+                    if let Err(e) = py.check_signals() {
+                        self.stop.store(true, Ordering::Relaxed);
+                        return Err(e);
+                    }
+                }
+            }
+        }
+    }
+
+    /// Stops the simulation; the iterator then ends.
+    fn close(&self) {
+        self.stop.store(true, Ordering::Relaxed);
+    }
+
+    /// Runs of the whole job.
+    #[getter]
+    fn runs(&self) -> u64 {
+        self.total
+    }
+}
+
+impl Drop for Stream {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Relaxed);
+    }
+}
+
+/// The Python-facing `stream`; see `mbmf.stream`. Checks every input before it returns.
+#[pyfunction]
+#[pyo3(signature = (task, controller, runs, seed, batch_size, threads, change, params, key_states = None, spaces = None))]
+#[allow(clippy::too_many_arguments)]
+fn stream(
+    py: Python<'_>,
+    task: &str,
+    controller: &Bound<'_, PyAny>,
+    runs: &Bound<'_, PyAny>,
+    seed: &Bound<'_, PyAny>,
+    batch_size: &Bound<'_, PyAny>,
+    threads: Option<&Bound<'_, PyAny>>,
+    change: Vec<String>,
+    params: Option<&Bound<'_, PyDict>>,
+    key_states: Option<PathBuf>,
+    spaces: Option<PathBuf>,
+) -> PyResult<(Stream, Vec<String>)> {
+    let others = [
+        "task",
+        "controller",
+        "runs",
+        "seed",
+        "batch_size",
+        "threads",
+        "change",
+        "output",
+        "key_states",
+        "spaces",
+    ];
+    let (job, threads) = job_of(
+        py,
+        "stream",
+        task,
+        (key_states, spaces),
+        controller,
+        runs,
+        seed,
+        batch_size,
+        threads,
+        &change,
+        params,
+        &others,
+        PathBuf::new(),
+    )?;
+    let checked = mbmf::run::Run::new(job).map_err(run_error)?;
+    let warnings = checked.warnings().to_vec();
+    let total = checked.job().total();
+    let pool = pool(threads)?;
+    let stop = Arc::new(AtomicBool::new(false));
+    // Two batches ahead at most: a slow reader holds back the simulation, not memory.
+    let (send, batches) = std::sync::mpsc::sync_channel::<Streamed>(2);
+    let halt = Arc::clone(&stop);
+    std::thread::Builder::new()
+        .name("mbmf-stream".into())
+        .spawn(move || {
+            let result = pool.install(|| {
+                checked.stream(
+                    &halt,
+                    |_| {},
+                    |tables| match send.send(Ok(tables)) {
+                        Ok(()) => ControlFlow::Continue(()),
+                        // The reader is gone: stop.
+                        Err(_) => ControlFlow::Break(()),
+                    },
+                )
+            });
+            if let Err(e) = result {
+                let _ = send.send(Err(e));
+            }
+        })
+        .map_err(|e| PyRuntimeError::new_err(format!("cannot start a thread: {e}")))?;
+    Ok((
+        Stream {
+            batches: Mutex::new(batches),
+            stop,
+            total,
+        },
+        warnings,
+    ))
+}
+
 /// A run entry's error: configuration errors name the keyword, schedule errors `change`.
 fn run_error(error: RunError) -> PyErr {
     match error {
@@ -465,11 +676,7 @@ fn load(
     let options = ReadOptions { allow_incomplete };
     let read =
         dataset::read_table(path, name, &options).map_err(|e| PyValueError::new_err(chain(&e)))?;
-    let filters = filters
-        .iter()
-        .map(|f| dataset::Filter::parse(f))
-        .collect::<Result<Vec<_>, _>>()
-        .map_err(|e| PyValueError::new_err(format!("where: {}", chain(&e))))?;
+    let filters = parse_filters(filters)?;
     let table = dataset::Filter::apply_all(&read.table, &filters)
         .map_err(|e| PyValueError::new_err(chain(&e)))?;
     Ok((table, read.warnings))
@@ -482,6 +689,102 @@ fn to_py(table: &dataset::Table) -> PyResult<PyTable> {
         .map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
     let schema = batch.schema();
     PyTable::try_new(vec![batch], schema)
+}
+
+/// The runs table `data` names: a dataset's path (read as the analysis verbs read it), or any
+/// table with the Arrow PyCapsule interface (polars, pyarrow, DuckDB, `mbmf.run`'s); with the
+/// rows that pass every `--where` filter and the reader's warnings.
+fn runs_of(
+    data: &Bound<'_, PyAny>,
+    filters: &[String],
+    allow_incomplete: bool,
+) -> PyResult<(dataset::Table, Vec<String>)> {
+    if let Ok(path) = data.extract::<PathBuf>() {
+        return load(&path, "runs", filters, allow_incomplete);
+    }
+    let Ok(table) = data.extract::<PyTable>() else {
+        return Err(PyTypeError::new_err(format!(
+            "data: expected a dataset's path or an Arrow table (with __arrow_c_stream__), not {}",
+            data.get_type().name()?
+        )));
+    };
+    let (batches, schema) = table.into_inner();
+    let table = dataset::Table::from_batches("<table>", &schema, &batches)
+        .map_err(|e| PyValueError::new_err(chain(&e)))?;
+    let filters = parse_filters(filters)?;
+    let table = dataset::Filter::apply_all(&table, &filters)
+        .map_err(|e| PyValueError::new_err(chain(&e)))?;
+    Ok((table, Vec::new()))
+}
+
+/// `--where` filters, with the message of a bad one.
+fn parse_filters(filters: &[String]) -> PyResult<Vec<dataset::Filter>> {
+    filters
+        .iter()
+        .map(|f| dataset::Filter::parse(f))
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(|e| PyValueError::new_err(format!("where: {}", chain(&e))))
+}
+
+/// The Python-facing `pareto`; see `mbmf.pareto`: the table `mbmf pareto` writes as
+/// pareto.parquet.
+#[pyfunction]
+#[pyo3(signature = (data, objectives, by, filters, allow_incomplete))]
+fn pareto(
+    data: &Bound<'_, PyAny>,
+    objectives: Option<Vec<String>>,
+    by: Vec<String>,
+    filters: Vec<String>,
+    allow_incomplete: bool,
+) -> PyResult<(PyTable, Vec<String>)> {
+    use mbmf::analysis::pareto::Objective;
+    let (table, warnings) = runs_of(data, &filters, allow_incomplete)?;
+    if table.is_empty() {
+        return Err(PyValueError::new_err(format!(
+            "{} holds no runs",
+            table.source()
+        )));
+    }
+    let objectives = objectives
+        .map(|list| {
+            list.iter()
+                .map(|o| Objective::parse(o))
+                .collect::<Result<Vec<_>, _>>()
+        })
+        .transpose()
+        .map_err(|e| PyValueError::new_err(format!("objectives: {}", chain(&e))))?;
+    let result = mbmf::analysis::front::pareto(&table, objectives.as_deref(), &by)
+        .map_err(|e| PyValueError::new_err(chain(&e)))?;
+    let front = result
+        .to_table()
+        .map_err(|e| PyRuntimeError::new_err(chain(&e)))?;
+    Ok((to_py(&front)?, warnings))
+}
+
+/// What `stats` returns: the groups, the pairs, the columns that also vary within groups, the
+/// `by` values left out (no value of the metric), and the reader's warnings.
+type StatsTables = (PyTable, PyTable, Vec<String>, Vec<String>, Vec<String>);
+
+/// The Python-facing `stats`; see `mbmf.stats`: the tables `mbmf stats` prints.
+#[pyfunction]
+#[pyo3(signature = (data, by, metric, filters, allow_incomplete))]
+fn stats(
+    data: &Bound<'_, PyAny>,
+    by: &str,
+    metric: &str,
+    filters: Vec<String>,
+    allow_incomplete: bool,
+) -> PyResult<StatsTables> {
+    let (table, warnings) = runs_of(data, &filters, allow_incomplete)?;
+    let c = mbmf::analysis::compare::compare(&table, by, metric)
+        .map_err(|e| PyValueError::new_err(chain(&e)))?;
+    Ok((
+        to_py(&c.groups_table())?,
+        to_py(&c.pairs_table())?,
+        c.mixed.clone(),
+        c.empty.iter().map(|v| v.to_string()).collect(),
+        warnings,
+    ))
 }
 
 /// The Python-facing `read`; see `mbmf.read`.
@@ -718,6 +1021,163 @@ fn parameters() -> Vec<(String, String, Vec<String>, String, String, String)> {
         .collect()
 }
 
+/// The native half of `mbmf.VecEnv`; see `mbmf.VecEnv` for the documentation.
+#[pyclass(module = "mbmf._mbmf", name = "VecEnv")]
+struct VecEnv {
+    env: mbmf::vec_env::VecEnv,
+}
+
+/// A vector environment's error: parameters name the keyword.
+fn vec_env_error(error: mbmf::vec_env::VecEnvError) -> PyErr {
+    use mbmf::vec_env::VecEnvError;
+    match error {
+        VecEnvError::Config(e) => config_error(e),
+        e => py_error(e),
+    }
+}
+
+/// States as numpy's default integers.
+fn states<'py>(py: Python<'py>, states: &[u32]) -> Bound<'py, PyArray1<i64>> {
+    PyArray1::from_iter(py, states.iter().map(|&s| i64::from(s)))
+}
+
+#[pymethods]
+impl VecEnv {
+    #[new]
+    #[pyo3(signature = (task, num_envs, seed, max_episode_steps, params, key_states = None, spaces = None))]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        task: &str,
+        num_envs: &Bound<'_, PyAny>,
+        seed: &Bound<'_, PyAny>,
+        max_episode_steps: Option<&Bound<'_, PyAny>>,
+        params: Option<&Bound<'_, PyDict>>,
+        key_states: Option<PathBuf>,
+        spaces: Option<PathBuf>,
+    ) -> PyResult<VecEnv> {
+        let num_envs = whole("num_envs", num_envs, 1, 1 << 24)? as usize;
+        let seed = whole("seed", seed, 0, u64::MAX)?;
+        let max_episode_steps = max_episode_steps
+            .map(|m| whole("max_episode_steps", m, 1, u64::from(u32::MAX)))
+            .transpose()?
+            .unwrap_or(0) as u32;
+        let spec = load_task(task, (key_states, spaces))?;
+        let others = [
+            "task",
+            "num_envs",
+            "seed",
+            "max_episode_steps",
+            "key_states",
+            "spaces",
+        ];
+        let (configs, _) = controller_params("VecEnv", task, &[Controller::Mf], params, &others)?;
+        let env = mbmf::vec_env::VecEnv::new(
+            Arc::new(spec),
+            &configs[0],
+            num_envs,
+            seed,
+            max_episode_steps,
+        )
+        .map_err(vec_env_error)?;
+        Ok(VecEnv { env })
+    }
+
+    /// Starts every copy afresh; returns the states.
+    #[pyo3(signature = (seed = None))]
+    fn reset<'py>(
+        &mut self,
+        py: Python<'py>,
+        seed: Option<&Bound<'py, PyAny>>,
+    ) -> PyResult<Bound<'py, PyArray1<i64>>> {
+        let seed = seed.map(|s| whole("seed", s, 0, u64::MAX)).transpose()?;
+        Ok(states(py, self.env.reset(seed)))
+    }
+
+    /// One step of every copy: (obs, reward, terminated, truncated, info).
+    #[allow(clippy::type_complexity)]
+    fn step<'py>(
+        &mut self,
+        py: Python<'py>,
+        actions: PyReadonlyArray1<'py, i64>,
+    ) -> PyResult<(
+        Bound<'py, PyArray1<i64>>,
+        Bound<'py, PyArray1<f64>>,
+        Bound<'py, PyArray1<bool>>,
+        Bound<'py, PyArray1<bool>>,
+        Bound<'py, PyDict>,
+    )> {
+        let actions = actions
+            .as_slice()
+            .map_err(|e| PyValueError::new_err(format!("actions: {e}")))?;
+        let len = self.env.task_state_len();
+        let n = self.env.len();
+        let out = self
+            .env
+            .step(actions)
+            .map_err(|e| PyValueError::new_err(e.to_string()))?;
+        let info = PyDict::new(py);
+        info.set_item("action", states(py, &out.action))?;
+        info.set_item("final_obs", states(py, &out.final_obs))?;
+        for (key, values) in [
+            ("takeover", &out.takeover),
+            ("congratulation", &out.congratulation),
+            ("punishment", &out.punishment),
+            ("nuisance", &out.nuisance),
+            ("human_reward", &out.human_reward),
+            ("forgotten", &out.forgotten),
+        ] {
+            info.set_item(key, PyArray1::from_slice(py, values))?;
+        }
+        info.set_item(
+            "budget_left",
+            PyArray1::from_iter(py, out.budget_left.iter().map(|&b| i64::from(b))),
+        )?;
+        let result = (
+            states(py, &out.obs),
+            PyArray1::from_slice(py, &out.reward),
+            PyArray1::from_slice(py, &out.terminated),
+            PyArray1::from_slice(py, &out.truncated),
+            info,
+        );
+        if len > 0 {
+            let task_state = PyArray1::from_slice(py, self.env.task_state()).reshape([n, len])?;
+            result.4.set_item("task_state", task_state)?;
+        }
+        Ok(result)
+    }
+
+    /// Copies stepped together.
+    #[getter]
+    fn num_envs(&self) -> usize {
+        self.env.len()
+    }
+
+    /// States of the task (observations are 0 to n_states - 1).
+    #[getter]
+    fn n_states(&self) -> usize {
+        self.env.world().n_states
+    }
+
+    /// Actions of the task (actions are 0 to n_actions - 1).
+    #[getter]
+    fn n_actions(&self) -> usize {
+        self.env.world().n_actions
+    }
+
+    /// The name of each state.
+    #[getter]
+    fn state_names(&self) -> Vec<String> {
+        self.env.world().state_names.clone()
+    }
+
+    /// The copies' task state (twostep: the four reward probabilities), one row per copy.
+    #[getter]
+    fn task_state<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let len = self.env.task_state_len();
+        PyArray1::from_slice(py, self.env.task_state()).reshape([self.env.len(), len])
+    }
+}
+
 /// The native module.
 #[pymodule]
 fn _mbmf(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -726,6 +1186,11 @@ fn _mbmf(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(sweep, m)?)?;
     m.add_function(wrap_pyfunction!(min_budget, m)?)?;
     m.add_function(wrap_pyfunction!(parameters, m)?)?;
+    m.add_function(wrap_pyfunction!(pareto, m)?)?;
+    m.add_function(wrap_pyfunction!(stats, m)?)?;
+    m.add_function(wrap_pyfunction!(stream, m)?)?;
+    m.add_class::<Stream>()?;
+    m.add_class::<VecEnv>()?;
     m.add(
         "CONTROLLERS",
         Controller::ALL.iter().map(|c| c.name()).collect::<Vec<_>>(),

@@ -5,7 +5,7 @@
 
 use crate::analysis::AnalysisError;
 use crate::analysis::dataset::{
-    Table, Value, configuration_columns, distinct_values, group_rows, varying_columns,
+    Column, Table, Value, configuration_columns, distinct_values, group_rows, varying_columns,
 };
 use crate::analysis::stats::{self, Alternative, MannWhitney};
 
@@ -150,6 +150,86 @@ pub fn compare(table: &Table, by: &str, metric: &str) -> Result<Comparison, Anal
         mixed,
         empty,
     })
+}
+
+impl Comparison {
+    /// One row per group, as `mbmf stats` prints them: the `by` column (its values, of its
+    /// type), `n`, `missing`, `mean`, `sd`, `median` (null where undefined).
+    pub fn groups_table(&self) -> Table {
+        let mut t = Table::new(format!("groups of {} by {}", self.metric, self.by));
+        let values: Vec<Value> = self.groups.iter().map(|g| g.value.clone()).collect();
+        t.push(self.by.clone(), column_of(&values));
+        let finite = |x: f64| x.is_finite().then_some(x);
+        t.push(
+            "n",
+            Column::uints(self.groups.iter().map(|g| Some(g.n as u64))),
+        );
+        t.push(
+            "missing",
+            Column::uints(self.groups.iter().map(|g| Some(g.missing as u64))),
+        );
+        t.push(
+            "mean",
+            Column::floats(self.groups.iter().map(|g| finite(g.mean))),
+        );
+        t.push(
+            "sd",
+            Column::floats(self.groups.iter().map(|g| finite(g.sd))),
+        );
+        t.push(
+            "median",
+            Column::floats(self.groups.iter().map(|g| finite(g.median))),
+        );
+        t
+    }
+
+    /// One row per pair, as `mbmf stats` prints them: `a`, `b` (the groups' values, of the `by`
+    /// column's type), `u`, `p`, `p_holm`, `effect` (rank-biserial correlation), `method`.
+    pub fn pairs_table(&self) -> Table {
+        let mut t = Table::new(format!("pairs of {} by {}", self.metric, self.by));
+        let side = |f: fn(&Pair) -> usize| -> Vec<Value> {
+            self.pairs
+                .iter()
+                .map(|p| self.groups[f(p)].value.clone())
+                .collect()
+        };
+        t.push("a", column_of(&side(|p| p.first)));
+        t.push("b", column_of(&side(|p| p.second)));
+        t.push(
+            "u",
+            Column::floats(self.pairs.iter().map(|p| Some(p.test.u))),
+        );
+        t.push(
+            "p",
+            Column::floats(self.pairs.iter().map(|p| Some(p.test.p_value))),
+        );
+        t.push(
+            "p_holm",
+            Column::floats(self.pairs.iter().map(|p| Some(p.p_holm))),
+        );
+        t.push(
+            "effect",
+            Column::floats(self.pairs.iter().map(|p| Some(p.test.effect_size))),
+        );
+        t.push(
+            "method",
+            Column::texts(self.pairs.iter().map(|p| Some(p.test.method.name()))),
+        );
+        t
+    }
+}
+
+/// Values of one column (a group key) as a column of their type: the type of the first value
+/// that is not null (text when all are).
+fn column_of(values: &[Value]) -> Column {
+    let like = match values.iter().find(|v| !matches!(v, Value::Null)) {
+        Some(Value::Bool(_)) => Column::bools([]),
+        Some(Value::Int(_)) => Column::ints([]),
+        Some(Value::UInt(_)) => Column::uints([]),
+        Some(Value::Float(_)) => Column::floats([]),
+        _ => Column::texts::<&str>([]),
+    };
+    Column::from_values(&like, values)
 }
 
 /// Median (mean of the two middle values for an even count); NaN when empty.

@@ -28,7 +28,7 @@ use arrow::compute::{
     CastOptions, SortColumn, and, cast, cast_with_options, concat, concat_batches, filter, is_null,
     lexsort_to_indices, partition, take,
 };
-use arrow::datatypes::{DataType, Field, Float64Type, Int64Type, Schema, UInt64Type};
+use arrow::datatypes::{DataType, Field, Float64Type, Int64Type, Schema, SchemaRef, UInt64Type};
 use arrow::error::ArrowError;
 use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
 
@@ -221,6 +221,11 @@ impl Column {
     /// Unsigned integers, `None` for null.
     pub fn uints(values: impl IntoIterator<Item = Option<u64>>) -> Column {
         Column(Arc::new(UInt64Array::from_iter(values)))
+    }
+
+    /// Signed integers, `None` for null.
+    pub fn ints(values: impl IntoIterator<Item = Option<i64>>) -> Column {
+        Column(Arc::new(Int64Array::from_iter(values)))
     }
 
     /// Text, `None` for null.
@@ -634,6 +639,26 @@ impl Table {
         }
     }
 
+    /// A table of Arrow record batches of `schema` (a file's, or another program's table),
+    /// read as a Parquet file is: columns of types the analyses do not use are skipped.
+    pub fn from_batches(
+        source: impl Into<String>,
+        schema: &SchemaRef,
+        batches: &[RecordBatch],
+    ) -> Result<Table, DatasetError> {
+        let mut table = Table::new(source);
+        let batch = concat_batches(schema, batches).map_err(|e| table.arrow_error(e))?;
+        for (field, array) in schema.fields().iter().zip(batch.columns()) {
+            match Column::from_arrow(array).map_err(|e| table.arrow_error(e))? {
+                Some(column) => table.push(field.name().clone(), column),
+                None => table
+                    .skipped
+                    .push((field.name().clone(), field.data_type().to_string())),
+            }
+        }
+        Ok(table)
+    }
+
     /// The table as one Arrow record batch (every field nullable), e.g. for `write_parquet`.
     pub fn to_record_batch(&self) -> Result<RecordBatch, ArrowError> {
         let arrays: Vec<ArrayRef> = self.columns.iter().map(|c| c.0.clone()).collect();
@@ -739,16 +764,7 @@ fn read_file(path: &Path) -> Result<(Table, Option<String>), DatasetError> {
     };
     let schema = reader.schema();
     let batches = reader.collect::<Result<Vec<_>, _>>().map_err(arrow_err)?;
-    let batch = concat_batches(&schema, &batches).map_err(arrow_err)?;
-    let mut table = Table::new(path.display().to_string());
-    for (field, array) in schema.fields().iter().zip(batch.columns()) {
-        match Column::from_arrow(array).map_err(arrow_err)? {
-            Some(column) => table.push(field.name().clone(), column),
-            None => table
-                .skipped
-                .push((field.name().clone(), field.data_type().to_string())),
-        }
-    }
+    let table = Table::from_batches(path.display().to_string(), &schema, &batches)?;
     Ok((table, schema_version))
 }
 

@@ -402,6 +402,75 @@ impl Front {
     }
 }
 
+/// One front of [`Pareto`]: the group's values of the [`INCOMPARABLE`] and `by` columns, its
+/// runs, and its front.
+#[derive(Debug, Clone)]
+pub struct ParetoGroup {
+    /// The group's values (empty for a dataset with nothing to split by).
+    pub values: Vec<(String, Value)>,
+    /// Runs in the group.
+    pub runs: usize,
+    /// The group's front.
+    pub front: Front,
+}
+
+/// What `mbmf pareto` computes: one front per group of comparable runs ([`groups_by`]), shared
+/// by the command line (its table, `--json` and pareto.parquet) and the Python package.
+#[derive(Debug, Clone)]
+pub struct Pareto {
+    /// The dataset.
+    pub source: String,
+    /// Runs analysed.
+    pub runs: usize,
+    /// One front per group, in ascending order of the groups' values.
+    pub groups: Vec<ParetoGroup>,
+}
+
+/// The fronts of `table`'s runs over `objectives` (default: [`default_objectives`]), one per
+/// group of [`groups_by`] with `by`.
+///
+/// # Errors
+/// A `by` column or an objective the table lacks, or objectives that cannot be ranked.
+pub fn pareto(
+    table: &Table,
+    objectives: Option<&[Objective]>,
+    by: &[String],
+) -> Result<Pareto, AnalysisError> {
+    let objectives = match objectives {
+        Some(o) => o.to_vec(),
+        None => default_objectives(table),
+    };
+    let groups = groups_by(table, by)?
+        .into_iter()
+        .map(|(values, runs)| {
+            Ok(ParetoGroup {
+                runs: runs.len(),
+                front: Front::compute(&runs, &objectives)?,
+                values,
+            })
+        })
+        .collect::<Result<_, AnalysisError>>()?;
+    Ok(Pareto {
+        source: table.source().to_owned(),
+        runs: table.len(),
+        groups,
+    })
+}
+
+impl Pareto {
+    /// pareto.parquet: every group's [`Front::to_table`], one after the other.
+    ///
+    /// # Errors
+    /// Groups whose columns of one name have different types (not from one dataset).
+    pub fn to_table(&self) -> Result<Table, crate::analysis::dataset::DatasetError> {
+        if let [group] = self.groups.as_slice() {
+            return Ok(group.front.to_table());
+        }
+        let tables: Vec<Table> = self.groups.iter().map(|g| g.front.to_table()).collect();
+        Table::stack(format!("Pareto analysis of {}", self.source), &tables)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -322,6 +322,14 @@ pub enum Method {
 }
 
 impl Method {
+    /// The method's name in `mbmf stats`'s table, `--json` and the Python tables.
+    pub fn name(self) -> &'static str {
+        match self {
+            Method::Exact => "exact",
+            Method::NormalApprox => "normal",
+        }
+    }
+
     /// The method `mann_whitney` chooses, which is `scipy.stats.mannwhitneyu`'s `'auto'` rule
     /// (scipy 1.17): exact when there are no ties (in the pooled sample) and at least one sample
     /// has at most 8 values; the normal approximation otherwise.

@@ -204,17 +204,14 @@ pub fn pareto(args: &ParetoArgs) -> Result<(), Failure> {
     if let Some(colour) = &args.colour {
         table.numeric(colour, "--colour").map_err(usage)?;
     }
-    let objectives = match &args.objectives {
-        Some(objectives) => objectives.clone(),
-        None => front::default_objectives(&table),
-    };
-    let groups = front::groups_by(&table, &args.by).map_err(analysis_failure)?;
-    let fronts: Vec<(&[(String, Value)], Front)> = groups
+    let pareto =
+        front::pareto(&table, args.objectives.as_deref(), &args.by).map_err(analysis_failure)?;
+    let fronts: Vec<(&[(String, Value)], &Front)> = pareto
+        .groups
         .iter()
-        .map(|(values, runs)| Ok((values.as_slice(), Front::compute(runs, &objectives)?)))
-        .collect::<Result<_, AnalysisError>>()
-        .map_err(analysis_failure)?;
-    let runs_of = |g: usize| groups[g].1.len();
+        .map(|g| (g.values.as_slice(), &g.front))
+        .collect();
+    let runs_of = |g: usize| pareto.groups[g].runs;
     if !args.json {
         if fronts.len() > 1 {
             let keys: Vec<&str> = fronts[0].0.iter().map(|(k, _)| k.as_str()).collect();
@@ -240,14 +237,10 @@ pub fn pareto(args: &ParetoArgs) -> Result<(), Failure> {
             print_front(front, values, runs_of(g));
         }
     }
-    let path = if let [(_, front)] = fronts.as_slice() {
-        write_table(&front.to_table(), &folder, "pareto.parquet")?
-    } else {
-        let tables: Vec<Table> = fronts.iter().map(|(_, f)| f.to_table()).collect();
-        let all = Table::stack(format!("Pareto analysis of {}", table.source()), &tables)
-            .map_err(|e| runtime(anyhow!("internal error building pareto.parquet: {e}")))?;
-        write_table(&all, &folder, "pareto.parquet")?
-    };
+    let all = pareto
+        .to_table()
+        .map_err(|e| runtime(anyhow!("internal error building pareto.parquet: {e}")))?;
+    let path = write_table(&all, &folder, "pareto.parquet")?;
     let mut written = vec![path];
     if !args.no_plot {
         let colour = args.colour.clone().or_else(|| {
@@ -278,7 +271,7 @@ pub fn pareto(args: &ParetoArgs) -> Result<(), Failure> {
             };
             let panels: Vec<(String, &Front)> = members
                 .iter()
-                .map(|&g| (group_label(fronts[g].0), &fronts[g].1))
+                .map(|&g| (group_label(fronts[g].0), fronts[g].1))
                 .collect();
             match front_chart(&panels, colour.as_deref(), args.by.is_empty()) {
                 Some(chart) => {
@@ -324,7 +317,7 @@ fn file_safe(text: &str) -> String {
 /// The `--json` report of `mbmf pareto` over several groups: the one-front report of each
 /// group (without `verb` and `files`), with the group's values under `group`.
 fn grouped_json(
-    fronts: &[(&[(String, Value)], Front)],
+    fronts: &[(&[(String, Value)], &Front)],
     table: &Table,
     files: &[String],
     runs_of: impl Fn(usize) -> usize,
@@ -603,7 +596,7 @@ fn comparison_json(c: &Comparison) -> serde_json::Value {
                 "p": p.test.p_value,
                 "p_holm": p.p_holm,
                 "effect": p.test.effect_size,
-                "method": method_name(p.test.method),
+                "method": p.test.method.name(),
             })
         })
         .collect();
@@ -618,14 +611,6 @@ fn comparison_json(c: &Comparison) -> serde_json::Value {
         "left_out": empty,
         "also_varying": c.mixed,
     })
-}
-
-/// How a test's p-value was computed, as `--json` and the table name it.
-fn method_name(method: crate::analysis::stats::Method) -> &'static str {
-    match method {
-        crate::analysis::stats::Method::Exact => "exact",
-        crate::analysis::stats::Method::NormalApprox => "normal",
-    }
 }
 
 /// Column titles of a text table.
@@ -675,7 +660,7 @@ fn print_comparison(c: &Comparison) {
                 pval(p.p_holm),
                 crate::analysis::stats::significance_stars(p.p_holm).to_owned(),
                 format!("{:+.3}", p.test.effect_size),
-                method_name(p.test.method).to_owned(),
+                p.test.method.name().to_owned(),
             ]
         })
         .collect();
