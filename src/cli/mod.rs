@@ -21,6 +21,7 @@ pub mod args;
 pub mod bench;
 pub mod docs;
 pub mod env;
+pub mod fit_human;
 pub mod plot;
 pub mod progress;
 pub mod reproduce;
@@ -142,6 +143,8 @@ pub enum Command {
     Stats(analysis::StatsArgs),
     /// Smallest interaction budget reaching the best accumulation rate, per controller.
     MinBudget(analysis::MinBudgetArgs),
+    /// Fit the simulated human (forget_prob, error_prob) to traced sessions; write a profile file.
+    FitHuman(fit_human::FitHumanArgs),
     /// Mean curves per group (with a standard-error band) from a dataset's series, changes marked.
     Plot(plot::PlotArgs),
     /// Run the paper's experiments and write its figures and a claim-by-claim report.
@@ -215,6 +218,7 @@ pub fn execute(cli: &Cli) -> Result<(), Failure> {
         Command::Pareto(args) => analysis::pareto(args),
         Command::Stats(args) => analysis::stats(args),
         Command::MinBudget(args) => analysis::min_budget(args),
+        Command::FitHuman(args) => fit_human::fit_human(args),
         Command::Plot(args) => plot::plot(args),
         Command::Reproduce(args) => reproduce::command(args),
         Command::Bench(args) => bench::command(args),
