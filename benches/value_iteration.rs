@@ -78,6 +78,7 @@ fn learn(spec: &Spec) -> Learned {
             cursor: &mut cursor,
             stats: &mut stats,
             series: &mut series,
+            trace: Default::default(),
             plan: None,
         };
         while view.cursor.t < total {

@@ -99,6 +99,7 @@ impl Solo {
             cursor: &mut self.cursor,
             stats: &mut self.stats,
             series: &mut self.series,
+            trace: Default::default(),
             plan: None,
         };
         step(&self.spec, &self.params, &mut view);

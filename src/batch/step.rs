@@ -14,6 +14,7 @@
 use std::time::Instant;
 
 use super::settled::{Expert, Fold};
+use super::trace::{self, Actor, HumanEvent};
 use super::{Checkpoint, RunView, Settled, initial_state, uniform};
 use crate::arbiter::{self, Arbiter, Draw, Inputs, Mixed, Own, Transition, Visit};
 use crate::env::{End, Spec};
@@ -41,12 +42,15 @@ pub(super) fn run_until(spec: &Spec, params: &Params, run: &mut RunView<'_>, end
     let human = run.plan.is_some()
         || params.human.interaction != Interaction::None
         || params.reward_source != RewardSource::Environment;
+    // A traced run records a row per experiment step: its own compiled loop.
+    let trace = !run.trace.is_empty();
     let code = Loop {
         spec,
         params,
         run,
         end,
         human,
+        trace,
     };
     arbiter::dispatch(params.controller, code);
 }
@@ -58,6 +62,7 @@ struct Loop<'r, 'v> {
     run: &'r mut RunView<'v>,
     end: u64,
     human: bool,
+    trace: bool,
 }
 
 impl Visit for Loop<'_, '_> {
@@ -87,18 +92,23 @@ impl Loop<'_, '_> {
             run,
             end,
             human,
+            trace,
         } = self;
-        match (spec.n_actions == 7, human) {
-            (true, false) => run_loop::<A, false, 7>(spec, p, run, end),
-            (true, true) => run_loop::<A, true, 7>(spec, p, run, end),
-            (false, false) => run_loop::<A, false, 0>(spec, p, run, end),
-            (false, true) => run_loop::<A, true, 0>(spec, p, run, end),
+        match (spec.n_actions == 7, human, trace) {
+            (true, false, false) => run_loop::<A, false, 7, false>(spec, p, run, end),
+            (true, true, false) => run_loop::<A, true, 7, false>(spec, p, run, end),
+            (false, false, false) => run_loop::<A, false, 0, false>(spec, p, run, end),
+            (false, true, false) => run_loop::<A, true, 0, false>(spec, p, run, end),
+            (true, false, true) => run_loop::<A, false, 7, true>(spec, p, run, end),
+            (true, true, true) => run_loop::<A, true, 7, true>(spec, p, run, end),
+            (false, false, true) => run_loop::<A, false, 0, true>(spec, p, run, end),
+            (false, true, true) => run_loop::<A, true, 0, true>(spec, p, run, end),
         }
     }
 }
 
-/// [`run_until`] for one arbitration rule and human mode.
-fn run_loop<A: Arbiter, const HUMAN: bool, const NA: usize>(
+/// [`run_until`] for one arbitration rule, human mode and trace mode.
+fn run_loop<A: Arbiter, const HUMAN: bool, const NA: usize, const TRACE: bool>(
     spec: &Spec,
     params: &Params,
     run: &mut RunView<'_>,
@@ -109,7 +119,7 @@ fn run_loop<A: Arbiter, const HUMAN: bool, const NA: usize>(
     let babble_end = end.min(babbling);
     if run.cursor.t < babble_end {
         while run.cursor.t < babble_end {
-            one_step::<A, HUMAN, NA, true>(spec, params, run, 0);
+            one_step::<A, HUMAN, NA, true, false>(spec, params, run, 0);
         }
         if run.cursor.t == babbling {
             // End of babbling: back to the start; a pending reset step is dropped (SPEC 7).
@@ -137,7 +147,7 @@ fn run_loop<A: Arbiter, const HUMAN: bool, const NA: usize>(
     let mut row_at = next_row(t_exp);
     while run.cursor.t < end {
         t_exp += 1;
-        one_step::<A, HUMAN, NA, false>(spec, params, run, t_exp);
+        one_step::<A, HUMAN, NA, false, TRACE>(spec, params, run, t_exp);
         if t_exp == row_at {
             record_checkpoint(run, t_exp);
             row_at = next_row(t_exp);
@@ -159,9 +169,16 @@ fn world<'s>(spec: &'s Spec, run: &RunView<'s>) -> &'s Spec {
         .map_or(spec, |p| &*p.worlds[usize::from(run.cursor.world)])
 }
 
-/// One step (SPEC 3.4) at experiment step `t_exp` (0 while babbling).
+/// One step (SPEC 3.4) at experiment step `t_exp` (0 while babbling), recording its trace row
+/// when `TRACE` (never while babbling).
 #[inline(always)]
-fn one_step<A: Arbiter, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
+fn one_step<
+    A: Arbiter,
+    const HUMAN: bool,
+    const NA: usize,
+    const BABBLING: bool,
+    const TRACE: bool,
+>(
     spec: &Spec,
     params: &Params,
     run: &mut RunView<'_>,
@@ -183,14 +200,29 @@ fn one_step<A: Arbiter, const HUMAN: bool, const NA: usize, const BABBLING: bool
         // this is one was decided by the previous arrival, even if the goal has since moved.
         run.cursor.pending_reset = false;
         run.cursor.state = initial_state(spec, run.rng);
+        if TRACE {
+            run.trace.record(
+                t_exp,
+                trace::Row {
+                    state: s as u32,
+                    action: trace::NO_ACTION,
+                    next_state: run.cursor.state,
+                    reward: 0.0,
+                    terminal: false,
+                    actor: Actor::Reset,
+                    p_mb: f64::NAN,
+                    event: HumanEvent::None,
+                },
+            );
+        }
     } else {
-        act::<A, HUMAN, NA, BABBLING>(spec, params, run, s, t_exp);
+        act::<A, HUMAN, NA, BABBLING, TRACE>(spec, params, run, s, t_exp);
     }
 }
 
 /// Steps 2 to 8 of SPEC 3.4 in a non-goal state.
 #[inline(always)]
-fn act<A: Arbiter, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
+fn act<A: Arbiter, const HUMAN: bool, const NA: usize, const BABBLING: bool, const TRACE: bool>(
     spec: &Spec,
     params: &Params,
     run: &mut RunView<'_>,
@@ -202,6 +234,12 @@ fn act<A: Arbiter, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
     let human = run.cursor.human;
     let human = &human;
     let human_active = HUMAN && !babbling && run.cursor.budget_left > 0;
+    // The trace tells the step's interaction from the counters it moved.
+    let counted = if TRACE && HUMAN {
+        Some(*run.stats)
+    } else {
+        None
+    };
 
     // 2. Takeover.
     let action = if human_active {
@@ -209,8 +247,8 @@ fn act<A: Arbiter, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
     } else {
         None
     };
-    let a = match action {
-        Some(a) => a,
+    let (a, actor, p_mb) = match action {
+        Some(a) => (a, Actor::Human, f64::NAN),
         None => decide::<A, HUMAN, NA, BABBLING>(spec, params, run, s),
     };
 
@@ -328,6 +366,23 @@ fn act<A: Arbiter, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
             .learn(params.window_n as usize, s, a, next, learned, terminal);
     }
 
+    if TRACE {
+        run.trace.record(
+            t_exp,
+            trace::Row {
+                state: s as u32,
+                action: a as u16,
+                next_state: next as u32,
+                reward,
+                terminal,
+                actor,
+                p_mb,
+                event: counted.map_or(HumanEvent::None, |before| {
+                    HumanEvent::between(&before, run.stats)
+                }),
+            },
+        );
+    }
     if !babbling {
         run.stats.total_reward += reward;
         if reward != 0.0 {
@@ -368,7 +423,8 @@ fn encounter<'r>(
 }
 
 /// Steps 3 to 5 of SPEC 3.4: the MC chooses, experts infer and compute their softmax, and the
-/// action is drawn from the chosen expert's distribution.
+/// action is drawn from the chosen expert's distribution. Returns the action, who chose it
+/// (SPEC 14's `actor`) and the decision's P(MB).
 ///
 /// What a decision computes from rows that have not changed since the last decision in the
 /// state is taken from then, bit for bit the same: the entropies of the averaged distributions
@@ -382,7 +438,7 @@ fn decide<A: Arbiter, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
     params: &Params,
     run: &mut RunView<'_>,
     s: usize,
-) -> usize {
+) -> (usize, Actor, f64) {
     let babbling = BABBLING;
     let n_a = actions::<NA>(spec);
     let row = s * n_a..(s + 1) * n_a;
@@ -553,7 +609,15 @@ fn decide<A: Arbiter, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
         run.cursor.window_p_mb += choice.p_mb;
         run.cursor.window_decisions += 1;
     }
-    a
+    let actor = match A::DRAW {
+        Draw::Expert if choice.use_mb => Actor::Mb,
+        Draw::Expert => Actor::Mf,
+        Draw::Mix => Actor::Mix,
+        // Per action (vpi): a mixture when MB valued at least one action.
+        Draw::PerAction if choice.use_mb => Actor::Mix,
+        Draw::PerAction => Actor::Mf,
+    };
+    (a, actor, choice.p_mb)
 }
 
 /// Whether rule `A` runs the MF expert alone: such a run keeps each state's MF softmax and Q row

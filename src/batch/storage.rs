@@ -8,6 +8,7 @@
 
 use rand_xoshiro::Xoshiro256PlusPlus;
 
+use super::trace::TraceRows;
 use super::{Checkpoint, Cursor, RunStats, Settled};
 use crate::env::Spec;
 use crate::expert::mb::Model;
@@ -155,6 +156,7 @@ macro_rules! tables {
                     cursor: rest.cursor,
                     stats: rest.stats,
                     series: rest.series,
+                    trace: rest.trace,
                     plan: rest.plan,
                 }
             }
@@ -173,6 +175,9 @@ macro_rules! tables {
             pub stats: &'a mut RunStats,
             /// The run's checkpoint rows.
             pub series: &'a mut [Checkpoint],
+            /// The run's trace rows, one per experiment step (none when the batch is not
+            /// traced).
+            pub trace: TraceRows<'a>,
             /// The run's schedule of changes, compiled; `None` for a run without changes in the
             /// batch's own environment.
             pub plan: Option<&'a Plan>,
@@ -213,6 +218,7 @@ pub(super) struct Rest<'a> {
     pub cursor: &'a mut Cursor,
     pub stats: &'a mut RunStats,
     pub series: &'a mut [Checkpoint],
+    pub trace: TraceRows<'a>,
     pub plan: Option<&'a Plan>,
 }
 

@@ -27,6 +27,7 @@ use super::shard::Shard;
 pub const TOP_LEVEL: &[&str] = &[
     "seeds",
     "master_seed",
+    "trace",
     "fixed",
     "grid",
     "zip",
@@ -128,6 +129,8 @@ pub struct Sweep {
     pub seeds: u32,
     /// Master seed: with the run index it fixes every run's random stream (default 1).
     pub master_seed: u64,
+    /// `trace = true`: write the per-step trace table (SPEC 14; default false).
+    pub trace: bool,
     /// `[fixed]`: one value for every configuration.
     pub fixed: Vec<(Key, Value)>,
     /// `[grid]` keys and `[[zip]]` groups, in file order.
@@ -1261,6 +1264,7 @@ impl Sweep {
         };
         let mut seeds = 1u32;
         let mut master_seed = 1u64;
+        let mut trace = false;
         for (k, v) in entries(root.get_ref()) {
             let name = keys::normalise(k.get_ref());
             let table = |p: &Parser<'_>| {
@@ -1288,6 +1292,22 @@ impl Sweep {
                                 ),
                             )
                         })?;
+                }
+                "trace" => {
+                    trace = match v.get_ref() {
+                        DeValue::Boolean(b) => *b,
+                        other => {
+                            return Err(p.src.err(
+                                &v.span(),
+                                "trace",
+                                format!(
+                                    "key 'trace': true (write the per-step trace table) or \
+                                     false, found {}",
+                                    type_name(other)
+                                ),
+                            ));
+                        }
+                    };
                 }
                 "fixed" => p.fixed(table(&p)?)?,
                 "grid" => p.grid(table(&p)?)?,
@@ -1359,6 +1379,7 @@ impl Sweep {
             text: text.to_string(),
             seeds,
             master_seed,
+            trace,
             fixed,
             axes,
             profiles,
@@ -1730,6 +1751,7 @@ impl Sweep {
             size.add(
                 weight * u128::from(self.seeds),
                 &self.resolve(config).params,
+                self.trace,
             );
         }
         if reps.exact {
