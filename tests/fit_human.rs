@@ -191,10 +191,11 @@ fn write_trace(file: &Path, rows: &[Row]) {
     writer.close().expect("close");
 }
 
-/// `mbmf fit-human ARGS --json`, parsed.
+/// `mbmf fit-human DIR --trace DIR ARGS --json`, parsed: the trace the test wrote in DIR, read
+/// as it is (it has no commit of its own).
 fn fit(args: &[&str]) -> Value {
-    let mut all = vec!["fit-human"];
-    all.extend_from_slice(args);
+    let mut all = vec!["fit-human", args[0], "--trace", args[0]];
+    all.extend_from_slice(&args[1..]);
     all.push("--json");
     let out = run_ok(&all);
     serde_json::from_slice(&out.stdout).expect("one JSON object")
@@ -577,4 +578,83 @@ fn a_dataset_without_a_trace_is_refused_with_what_to_do() {
     assert_eq!(out.status.code(), Some(2));
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(stderr.contains("--trace"), "{stderr}");
+}
+
+#[test]
+fn humans_simulated_by_the_engine_and_traced_are_fitted_back_within_their_intervals() {
+    // The engine's own human (SPEC 5 and 15) with f in {0, 0.2, 0.5} x e in {0, 0.1, 0.3}, two
+    // traced runs each, pooled per (f, e).
+    let dir = tempfile::tempdir().expect("temp dir");
+    let sweep = dir.path().join("humans.toml");
+    std::fs::write(
+        &sweep,
+        "seeds = 2\ntrace = true\n[fixed]\ncontroller = \"mf\"\nsteps = 4000\n\
+         interaction = \"congratulation\"\nbudget = 1000000\n\
+         [grid]\nforget_prob = [0.0, 0.2, 0.5]\nerror_prob = [0.0, 0.1, 0.3]\n",
+    )
+    .unwrap();
+    let data = dir.path().join("humans");
+    let data = data.to_str().unwrap();
+    run_ok(&["sweep", sweep.to_str().unwrap(), "--out", data, "-q"]);
+    let out = run_ok(&[
+        "fit-human",
+        data,
+        "--by",
+        "forget_prob,error_prob",
+        "--json",
+    ]);
+    let report: Value = serde_json::from_slice(&out.stdout).expect("one JSON object");
+    let sessions = report["sessions"].as_array().expect("sessions");
+    assert_eq!(sessions.len(), 9);
+    let mut misses = 0;
+    for s in sessions {
+        assert_eq!(s["runs"], 2);
+        for name in ["forget_prob", "error_prob"] {
+            let truth: f64 = s["session"][name].as_str().unwrap().parse().unwrap();
+            let (value, low, high) = estimate(s, name);
+            let value = value.unwrap_or_else(|| panic!("{name} not identified: {s}"));
+            assert!(
+                (value - truth).abs() < 0.06,
+                "{name} {value} for {truth}: {s}"
+            );
+            if !(low..=high).contains(&truth) {
+                misses += 1;
+            }
+        }
+    }
+    // 18 intervals at 95%: four misses or more has a probability of about 1%.
+    assert!(
+        misses <= 3,
+        "{misses} of 18 intervals miss their true value"
+    );
+
+    // A takeover human of the engine: its forget rate, and no error to estimate.
+    let taken = dir.path().join("taken");
+    let t = taken.to_str().unwrap();
+    run_ok(&[
+        "run",
+        "--controller",
+        "mf",
+        "--runs",
+        "2",
+        "--steps",
+        "4000",
+        "--interaction",
+        "takeover",
+        "--budget",
+        "1000000",
+        "--forget",
+        "0.3",
+        "--trace",
+        "--out",
+        t,
+        "-q",
+    ]);
+    let out = run_ok(&["fit-human", t, "--json"]);
+    let report: Value = serde_json::from_slice(&out.stdout).expect("one JSON object");
+    for s in report["sessions"].as_array().unwrap() {
+        let (f, low, high) = estimate(s, "forget_prob");
+        assert!((f.unwrap() - 0.3).abs() < 0.06 && low < high, "{s}");
+        assert_eq!(estimate(s, "error_prob"), (None, 0.0, 1.0));
+    }
 }

@@ -316,9 +316,12 @@ pub struct HumanFit {
     pub notes: Vec<String>,
 }
 
-/// Reads the trace table of the dataset at `path`: `path` itself if it is a file, else
-/// `trace.parquet` in it, else the `*.parquet` files of its `trace/` folder (in name order).
-pub fn read_trace(path: &Path) -> Result<Table, DatasetError> {
+/// Reads a trace table given by its own path, as written (a person's session log, or a trace
+/// kept apart from its runs): `path` itself if it is a file, else `trace.parquet` in it, else the
+/// `*.parquet` files of its `trace/` folder or of `path` (in name order). Unlike
+/// [`dataset::read_trace`], which reads only the trace committed with a dataset's runs, it
+/// trusts the caller that the files belong to the runs analysed.
+pub fn read_trace_at(path: &Path) -> Result<Table, DatasetError> {
     let not_found = |detail: String| DatasetError::NotFound {
         path: path.to_path_buf(),
         table: TRACE.to_owned(),
@@ -331,11 +334,15 @@ pub fn read_trace(path: &Path) -> Result<Table, DatasetError> {
     if file.is_file() {
         return dataset::read_parquet_file(&file);
     }
-    let folder = path.join(TRACE);
+    let folder = if path.join(TRACE).is_dir() {
+        path.join(TRACE)
+    } else {
+        path.to_path_buf()
+    };
     let mut files: Vec<PathBuf> = std::fs::read_dir(&folder)
         .map_err(|_| {
             not_found(
-                "no trace.parquet and no trace/ folder (was the dataset written with --trace?)"
+                "no trace.parquet, no trace/ folder and no folder of .parquet files there"
                     .to_owned(),
             )
         })?

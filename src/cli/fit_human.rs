@@ -26,7 +26,9 @@ pub struct FitHumanArgs {
     /// The dataset (written with --trace) and the runs kept.
     #[command(flatten)]
     pub data: Dataset,
-    /// The trace table, if not in the dataset's folder (trace.parquet or trace/).
+    /// Read the trace from this file or folder (trace.parquet, a trace/ folder, or a folder of
+    /// .parquet files) as it is, e.g. a session log kept apart from its runs (default: the trace
+    /// committed with the dataset's runs).
     #[arg(long, value_name = "PATH")]
     pub trace: Option<PathBuf>,
     /// Pool the runs that share the values of these columns of the runs table into one
@@ -55,11 +57,15 @@ pub fn fit_human(args: &FitHumanArgs) -> Result<(), Failure> {
     let read = dataset::read_table(&args.data.dir, "runs", &args.data.options()).map_err(usage)?;
     warn(&read.warnings);
     let runs = Filter::apply_all(&read.table, &args.data.filters).map_err(usage)?;
-    let trace_path = args
-        .trace
-        .clone()
-        .unwrap_or_else(|| trace_folder(&args.data.dir));
-    let trace = fit_human::read_trace(&trace_path).map_err(usage)?;
+    let trace = match &args.trace {
+        Some(path) => fit_human::read_trace_at(path).map_err(usage)?,
+        None => {
+            let read = dataset::read_table(&args.data.dir, "trace", &args.data.options())
+                .map_err(|e| usage(anyhow!("{e} (fit-human needs runs written with --trace)")))?;
+            warn(&read.warnings);
+            read.table
+        }
+    };
     let fitted = fit_human::fit_humans(&runs, &trace, &args.by, args.window).map_err(usage)?;
     for note in &fitted.notes {
         eprintln!("note: {note}");
@@ -83,15 +89,6 @@ pub fn fit_human(args: &FitHumanArgs) -> Result<(), Failure> {
         outln!("wrote {}", path.display());
     }
     Ok(())
-}
-
-/// The dataset's folder, where its trace is: the folder given, or the one holding the runs
-/// file given, or the sweep above a `runs/` folder.
-fn trace_folder(dir: &std::path::Path) -> PathBuf {
-    let analysis = dataset::output_folder(dir);
-    analysis
-        .parent()
-        .map_or_else(|| PathBuf::from("."), std::path::Path::to_path_buf)
 }
 
 /// An estimate as `0.102 [0.081, 0.125]`, or `-` when not identified.
