@@ -35,17 +35,32 @@ impl Encounter<'_> {
     /// counts a forgotten opportunity (false).
     #[inline(always)]
     fn attend(&mut self, given: impl FnOnce(&mut RunStats)) -> bool {
-        if uniform(self.rng) >= self.human.forget_prob {
-            given(self.stats);
-            *self.budget_left -= 1;
-            if *self.budget_left == 0 {
-                self.stats.budget_exhausted_step = self.t_exp;
-            }
-            true
-        } else {
+        self.attend_then(|_| true, given)
+    }
+
+    /// An opportunity with a judgment (SPEC 15): the attention draw; an attentive human then
+    /// decides with `decides` (which may draw), and interacts (as in [`Self::attend`]) only
+    /// if it says so. An inattentive one counts a forgotten opportunity; an attentive one that
+    /// decides against interacting counts nothing and spends nothing.
+    #[inline(always)]
+    fn attend_then(
+        &mut self,
+        decides: impl FnOnce(&mut Xoshiro256PlusPlus) -> bool,
+        given: impl FnOnce(&mut RunStats),
+    ) -> bool {
+        if uniform(self.rng) < self.human.forget_prob {
             self.stats.forgotten += 1;
-            false
+            return false;
         }
+        if !decides(self.rng) {
+            return false;
+        }
+        given(self.stats);
+        *self.budget_left -= 1;
+        if *self.budget_left == 0 {
+            self.stats.budget_exhausted_step = self.t_exp;
+        }
+        true
     }
 
     /// Item 2 of SPEC 3.4 in state `s`: the human's put when an attentive takeover human takes
@@ -63,26 +78,41 @@ impl Encounter<'_> {
     }
 
     /// Item 7 of SPEC 3.4 for the executed pair `sa`: G(s, a) of Eq. 8, 1 when an attentive
-    /// human with budget left congratulates a relevant action (or punishes an error), else 0.
+    /// human with budget left congratulates (or punishes) it, else 0.
+    ///
+    /// With `error_prob` 0 only a relevant action (an error, for punishment) is an opportunity
+    /// and the human judges it rightly: one draw, SPEC 5 draw for draw. With `error_prob` e > 0
+    /// every executed action is one (SPEC 15): the attention draw, then the judgment draw, which
+    /// is wrong with probability e; a wrong judgment gives feedback to an action that does not
+    /// merit it (and spends budget, as any interaction) or withholds it from one that does.
     #[inline]
     pub fn feedback(&mut self, sa: usize) -> u8 {
         if *self.budget_left == 0 {
             return 0;
         }
         let congratulation = self.human.interaction == Interaction::Congratulation;
-        let opportunity = match self.human.interaction {
-            Interaction::Congratulation => self.tables.is_some_and(|h| h.relevant[sa]),
-            Interaction::Punishment => self.tables.is_some_and(|h| h.error[sa]),
-            _ => false,
+        let merits = match self.human.interaction {
+            Interaction::Congratulation => self.tables.map(|h| h.relevant[sa]),
+            Interaction::Punishment => self.tables.map(|h| h.error[sa]),
+            _ => None,
         };
-        let given = opportunity
-            && self.attend(|s| {
+        let Some(merits) = merits else {
+            return 0;
+        };
+        let error_prob = self.human.error_prob;
+        if error_prob == 0.0 && !merits {
+            return 0;
+        }
+        let given = self.attend_then(
+            |rng| error_prob == 0.0 || judges(merits, error_prob, uniform(rng)),
+            |s| {
                 if congratulation {
                     s.congratulations += 1;
                 } else {
                     s.punishments += 1;
                 }
-            });
+            },
+        );
         u8::from(given)
     }
 
@@ -113,6 +143,15 @@ impl Encounter<'_> {
     }
 }
 
+/// The judgment of an attentive human with error probability `error_prob` on an action that
+/// `merits` feedback (a relevant action for congratulation, an error for punishment), from the
+/// judgment draw `u`: wrong when `u < error_prob`, so feedback comes with probability
+/// 1 - error_prob where merited and error_prob elsewhere (SPEC 15, Loftin et al. 2016).
+#[inline(always)]
+pub fn judges(merits: bool, error_prob: f64, u: f64) -> bool {
+    merits != (u < error_prob)
+}
+
 /// The weight of G(s, a) in the experts' softmax (Eq. 8): +zeta for congratulation, -zeta for
 /// punishment, 0 otherwise, and 0 for a congratulation that shapes the reward instead (11.3).
 #[inline]
@@ -121,5 +160,176 @@ pub fn bonus_weight(human: &HumanParams, effect: CongratulationEffect) -> f64 {
         Interaction::Congratulation if effect == CongratulationEffect::Bias => human.zeta,
         Interaction::Punishment => -human.zeta,
         _ => 0.0,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use rand_core::SeedableRng;
+
+    use super::*;
+
+    /// Two pairs: 0 relevant (and not an error), 1 an error.
+    fn tables() -> HumanTables {
+        HumanTables {
+            relevant: vec![true, false],
+            error: vec![false, true],
+            takeover_action: vec![NO_TAKEOVER],
+            nuisance: vec![NO_NUISANCE; 2],
+        }
+    }
+
+    /// The outcome of one feedback opportunity on pair `sa`: G, the budget left, the counters
+    /// and the draws taken from a stream seeded with `seed`.
+    fn feedback(human: HumanParams, sa: usize, seed: u64) -> (u8, u32, RunStats, usize) {
+        let tables = tables();
+        let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed);
+        let start = rng.clone();
+        let (mut budget_left, mut stats) = (5, RunStats::default());
+        let g = Encounter {
+            human: &human,
+            tables: Some(&tables),
+            budget_left: &mut budget_left,
+            stats: &mut stats,
+            t_exp: 9,
+            rng: &mut rng,
+        }
+        .feedback(sa);
+        let draws = (0..4)
+            .find(|&k| {
+                let mut probe = start.clone();
+                (0..k).for_each(|_| _ = uniform(&mut probe));
+                probe == rng
+            })
+            .expect("at most three draws");
+        (g, budget_left, stats, draws)
+    }
+
+    fn human(interaction: Interaction, forget_prob: f64, error_prob: f64) -> HumanParams {
+        HumanParams {
+            interaction,
+            budget: 5,
+            forget_prob,
+            error_prob,
+            ..HumanParams::default()
+        }
+    }
+
+    #[test]
+    fn a_judgment_is_wrong_exactly_when_its_draw_is_below_error_prob() {
+        assert!(judges(true, 0.3, 0.3) && judges(true, 0.3, 0.9));
+        assert!(!judges(true, 0.3, 0.29) && !judges(true, 1.0, 0.999));
+        assert!(judges(false, 0.3, 0.0) && judges(false, 0.3, 0.299));
+        assert!(!judges(false, 0.3, 0.3) && !judges(false, 0.0, 0.0));
+    }
+
+    #[test]
+    fn without_error_only_a_merited_action_draws_and_it_draws_once() {
+        let c = human(Interaction::Congratulation, 0.0, 0.0);
+        // The other action: no opportunity, no draw, nothing counted.
+        assert_eq!(feedback(c, 1, 3), (0, 5, RunStats::default(), 0));
+        let (g, left, stats, draws) = feedback(c, 0, 3);
+        assert_eq!((g, left, stats.congratulations, draws), (1, 4, 1, 1));
+        let p = human(Interaction::Punishment, 0.0, 0.0);
+        assert_eq!(feedback(p, 0, 3).3, 0);
+        let (g, left, stats, draws) = feedback(p, 1, 3);
+        assert_eq!((g, left, stats.punishments, draws), (1, 4, 1, 1));
+    }
+
+    #[test]
+    fn an_always_wrong_attentive_human_rewards_the_wrong_action_and_spends_budget() {
+        // forget 0, error 1: attention then judgment on every action, always wrong.
+        let c = human(Interaction::Congratulation, 0.0, 1.0);
+        let (g, left, stats, draws) = feedback(c, 0, 11);
+        assert_eq!(
+            (g, left, stats.congratulations, stats.forgotten, draws),
+            (0, 5, 0, 0, 2)
+        );
+        let (g, left, stats, draws) = feedback(c, 1, 11);
+        assert_eq!((g, left, stats.congratulations, draws), (1, 4, 1, 2));
+        let p = human(Interaction::Punishment, 0.0, 1.0);
+        let (g, left, stats, _) = feedback(p, 0, 11);
+        assert_eq!((g, left, stats.punishments), (1, 4, 1));
+        assert_eq!(feedback(p, 1, 11).0, 0);
+    }
+
+    #[test]
+    fn an_inattentive_human_draws_no_judgment() {
+        let c = human(Interaction::Congratulation, 1.0, 0.5);
+        for sa in [0, 1] {
+            let (g, left, stats, draws) = feedback(c, sa, 5);
+            assert_eq!((g, left, stats.forgotten, draws), (0, 5, 1, 1));
+        }
+    }
+
+    #[test]
+    fn each_seeded_opportunity_follows_its_attention_then_judgment_draws() {
+        let (f, e) = (0.4, 0.35);
+        let mut seen = [[0u32; 2]; 3];
+        for seed in 0..200 {
+            let mut stream = Xoshiro256PlusPlus::seed_from_u64(seed);
+            let (u_attention, u_judgment) = (uniform(&mut stream), uniform(&mut stream));
+            for sa in [0, 1] {
+                let c = human(Interaction::Congratulation, f, e);
+                let (g, left, stats, draws) = feedback(c, sa, seed);
+                let merits = sa == 0;
+                let case = if u_attention < f {
+                    assert_eq!((g, stats.forgotten, draws), (0, 1, 1), "seed {seed}");
+                    0
+                } else {
+                    let wrong = u_judgment < e;
+                    assert_eq!(g == 1, merits != wrong, "seed {seed} pair {sa}");
+                    assert_eq!((stats.forgotten, draws), (0, 2), "seed {seed}");
+                    1 + usize::from(wrong)
+                };
+                assert_eq!(left, 5 - u32::from(g), "seed {seed}");
+                seen[case][sa] += 1;
+            }
+        }
+        // Every branch was taken for both pairs.
+        assert!(seen.iter().flatten().all(|&n| n > 0), "{seen:?}");
+    }
+
+    #[test]
+    fn no_feedback_once_the_budget_is_spent_and_none_for_other_humans() {
+        let tables = tables();
+        let mut rng = Xoshiro256PlusPlus::seed_from_u64(1);
+        let (mut budget_left, mut stats) = (0, RunStats::default());
+        let c = human(Interaction::Congratulation, 0.0, 0.5);
+        let mut meet = Encounter {
+            human: &c,
+            tables: Some(&tables),
+            budget_left: &mut budget_left,
+            stats: &mut stats,
+            t_exp: 1,
+            rng: &mut rng,
+        };
+        assert_eq!(meet.feedback(0), 0);
+        assert_eq!(
+            feedback(human(Interaction::Takeover, 0.0, 0.5), 0, 1),
+            (0, 5, RunStats::default(), 0)
+        );
+        assert_eq!(
+            feedback(human(Interaction::Nuisance, 0.0, 0.5), 1, 1),
+            (0, 5, RunStats::default(), 0)
+        );
+    }
+
+    #[test]
+    fn the_last_unit_of_budget_spent_by_a_wrong_congratulation_is_recorded() {
+        let tables = tables();
+        let mut rng = Xoshiro256PlusPlus::seed_from_u64(2);
+        let (mut budget_left, mut stats) = (1, RunStats::default());
+        let c = human(Interaction::Congratulation, 0.0, 1.0);
+        let g = Encounter {
+            human: &c,
+            tables: Some(&tables),
+            budget_left: &mut budget_left,
+            stats: &mut stats,
+            t_exp: 42,
+            rng: &mut rng,
+        }
+        .feedback(1);
+        assert_eq!((g, budget_left, stats.budget_exhausted_step), (1, 0, 42));
     }
 }

@@ -336,6 +336,10 @@ crate::env::registry::task_params!(registry::registry {
     flag zeta in human: f64 = 0.1, "human's error or reward scale zeta",
         accepts "a bonus weight from 0 to 1e12" if |x| (0.0..=MAGNITUDE_MAX).contains(&x),
         help ". A congratulation adds it to the softmax, a punishment subtracts it";
+    flag error_prob in human: f64 = 0.0,
+        "probability an attentive human misjudges an action (SPEC 15)" ("probability"),
+        accepts "a probability in [0, 1]" if |x| (0.0..=1.0).contains(&x),
+        help ". Above 0 every robot action is a congratulation or punishment opportunity";
     flag alpha_mf: f64 = 0.6, "MF learning rate",
         accepts "a learning rate in (0, 1]" if |x| x > 0.0 && x <= 1.0;
     flag gamma_mf: f64 = 0.9, "MF discount factor",

@@ -83,6 +83,7 @@ pub const EVENT_KEYS: &[&str] = &[
     "interaction",
     "budget",
     "forget",
+    "error_prob",
     "zeta",
     "profile",
     "reward_source",
@@ -196,6 +197,13 @@ impl Change {
                 }
                 Event::Human(HumanChange::Forget(p))
             }
+            "error_prob" => {
+                let e = number("a probability in [0, 1]")?;
+                if !(0.0..=1.0).contains(&e) {
+                    return Err(fail(text, format!("error_prob '{value}' is not in [0, 1]")));
+                }
+                Event::Human(HumanChange::ErrorProb(e))
+            }
             "zeta" => {
                 let z = number("a number from 0 to 1e12")?;
                 if !(0.0..=crate::params::MAGNITUDE_MAX).contains(&z) {
@@ -273,6 +281,7 @@ impl fmt::Display for HumanChange {
             HumanChange::Interaction(i) => write!(f, "interaction={}", i.name()),
             HumanChange::Budget(n) => write!(f, "budget={n}"),
             HumanChange::Forget(p) => write!(f, "forget={p}"),
+            HumanChange::ErrorProb(e) => write!(f, "error_prob={e}"),
             HumanChange::Zeta(z) => write!(f, "zeta={z}"),
             HumanChange::Profile(p) => write!(f, "profile={}", p.name()),
             HumanChange::RewardSource(r) => write!(f, "reward_source={}", r.name()),
@@ -337,6 +346,8 @@ pub enum HumanChange {
     Budget(u32),
     /// `forget=P`: the human's forget probability.
     Forget(f64),
+    /// `error_prob=E`: the probability the attentive human misjudges an action (SPEC 15).
+    ErrorProb(f64),
     /// `zeta=Z`: the congratulation (or punishment) weight.
     Zeta(f64),
     /// `profile=NAME`: a built-in human (type, budget left, forget, zeta, reward source),

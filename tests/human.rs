@@ -152,6 +152,7 @@ fn human(interaction: Interaction, budget: u32, forget_prob: f64) -> Params {
             budget,
             forget_prob,
             zeta: 0.1,
+            error_prob: 0.0,
         },
         ..Params::default()
     }
@@ -250,6 +251,7 @@ fn the_budget_is_never_exceeded_and_its_exhaustion_step_is_recorded() {
                     budget,
                     forget_prob: 0.1,
                     zeta: 0.1,
+                    error_prob: 0.0,
                 },
                 ..Params::default()
             };
@@ -295,6 +297,7 @@ fn the_share_of_forgotten_opportunities_is_forget_prob_within_four_sigma() {
             budget: u32::MAX,
             forget_prob,
             zeta: 0.1,
+            error_prob: 0.0,
         },
         ..Params::default()
     };
@@ -419,6 +422,7 @@ fn babbling_counts_no_reward_no_cost_and_no_interaction() {
             budget: 1000,
             forget_prob: 0.0,
             zeta: 0.1,
+            error_prob: 0.0,
         },
         ..Params::default()
     };

@@ -64,6 +64,7 @@ fn human(interaction: Interaction, budget: u32) -> HumanParams {
         budget,
         forget_prob: 0.1,
         zeta: 0.1,
+        error_prob: 0.0,
     }
 }
 
@@ -647,6 +648,48 @@ fn the_two_step_task_with_and_without_traces_matches_the_naive_reference() {
         let engine = [RC, RR, UC, UR].map(|kind| twostep::stay(tally, kind));
         assert_eq!(engine, naive.stays(), "{}", describe(config));
         assert!(engine.iter().all(Option::is_some), "{}", describe(config));
+    }
+}
+
+#[test]
+fn humans_who_misjudge_match_the_naive_reference_with_budgets_shaping_and_changes() {
+    // SPEC 15: every robot action is an opportunity, attention then judgment. Errors at 0.3
+    // and 1 (always wrong), with budgets that run out and one that lasts, reward shaping, and
+    // schedules that start, change and stop the misjudging.
+    let mut params = Vec::new();
+    for (interaction, budget, error_prob) in [
+        (Interaction::Congratulation, 60, 0.3),
+        (Interaction::Congratulation, 5000, 0.1),
+        (Interaction::Punishment, 80, 0.3),
+        (Interaction::Punishment, 5000, 1.0),
+    ] {
+        for controller in [Controller::Mf, Controller::Mb, Controller::Ec] {
+            params.push(Params {
+                human: HumanParams {
+                    error_prob,
+                    ..human(interaction, budget)
+                },
+                ..short(controller, Selection::Softmax)
+            });
+        }
+    }
+    params.push(Params {
+        human: HumanParams {
+            error_prob: 0.2,
+            ..human(Interaction::Congratulation, 300)
+        },
+        congratulation_effect: CongratulationEffect::Reward,
+        ..short(Controller::Ec, Selection::Argmax)
+    });
+    for task in ["tidy1", "tidy2"] {
+        let spec = spec(task);
+        let list = schedules(&[
+            "",
+            "700:error_prob=0.5;1200:error_prob=0",
+            "900:profile=generous;1500:error_prob=0.25",
+        ]);
+        let (configs, which) = scheduled_runs(&params, &[4], list.len());
+        assert_parity_scheduled(&spec, configs, &list, &which);
     }
 }
 

@@ -53,12 +53,15 @@ fn params() -> impl Strategy<Value = Params> {
         Interaction::Takeover,
         Interaction::Punishment,
     ]);
-    let human = (interaction, 0u32..60, 0.0..=1.0f64, 0.0..2.0f64).prop_map(
-        |(interaction, budget, forget_prob, zeta)| HumanParams {
+    // Half the humans judge without error (SPEC 5), half misjudge at some rate (SPEC 15).
+    let error_prob = prop_oneof![Just(0.0), 0.0..=1.0f64];
+    let human = (interaction, 0u32..60, 0.0..=1.0f64, 0.0..2.0f64, error_prob).prop_map(
+        |(interaction, budget, forget_prob, zeta, error_prob)| HumanParams {
             interaction,
             budget,
             forget_prob,
             zeta,
+            error_prob,
         },
     );
     let rates = (0.05..=1.0f64, 0.0..0.99f64, 0.0..0.99f64, 0.05..=1.0f64);

@@ -4,6 +4,7 @@
 //! - [`front`] aggregates runs by configuration and finds the Pareto front (`mbmf pareto`).
 //! - [`compare`] tests a metric between groups of runs (`mbmf stats`).
 //! - [`curves`] computes mean curves with standard errors from the series table (`mbmf plot`).
+//! - [`fit_human`] fits the simulated human to traced sessions (`mbmf fit-human`).
 //! - [`min_budget`] finds the smallest sufficient interaction budget (`mbmf min-budget`).
 //! - [`stay`] summarises and tests the two-step task's stay probabilities (`mbmf stay`).
 //! - [`pareto`] and [`stats`] hold the algorithms they use; the verbs that print
@@ -12,6 +13,7 @@
 pub mod compare;
 pub mod curves;
 pub mod dataset;
+pub mod fit_human;
 pub mod front;
 pub mod min_budget;
 pub mod pareto;

@@ -4,8 +4,9 @@
 //! opportunity; the MC's draw (`rnd`, softmax selection, or an argmax tie); the action; the
 //! environment's outcome (pairs with several outcomes only); the reward (drawn rewards only);
 //! the human's attentiveness at a nuisance opportunity (SPEC 11.2); at a human-reward
-//! opportunity (11.1); at a congratulation or punishment opportunity. A reset step draws an initial state only when the environment has
-//! several.
+//! opportunity (11.1); at a congratulation or punishment opportunity, then, with `error_prob`
+//! above 0, the human's judgment there (SPEC 15). A reset step draws an initial state only when
+//! the environment has several.
 //!
 //! The events of the run's schedule due at an experiment step apply first, before anything of
 //! that step (SPEC 10); from then on the step reads the world and human from the cursor.
@@ -721,6 +722,7 @@ fn apply_due(plan: &Plan, params: &Params, run: &mut RunView<'_>, t_exp: u32) {
                 HumanChange::Interaction(i) => cursor.human.interaction = i,
                 HumanChange::Budget(n) => cursor.budget_left = n,
                 HumanChange::Forget(p) => cursor.human.forget_prob = p,
+                HumanChange::ErrorProb(e) => cursor.human.error_prob = e,
                 HumanChange::Zeta(z) => cursor.human.zeta = z,
                 HumanChange::Profile(p) => {
                     if let Some(h) = p.human(params.controller) {

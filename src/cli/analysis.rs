@@ -1068,7 +1068,7 @@ fn pval(p: f64) -> String {
 }
 
 /// A plain-text table: the first `left` columns left-aligned, the others right-aligned.
-fn render(headers: &[String], rows: &[Vec<String>], left: usize) -> String {
+pub(super) fn render(headers: &[String], rows: &[Vec<String>], left: usize) -> String {
     render_aligned(headers, rows, |i| i < left)
 }
 

@@ -21,6 +21,7 @@ pub mod args;
 pub mod bench;
 pub mod docs;
 pub mod env;
+pub mod fit_human;
 pub mod plot;
 pub mod progress;
 pub mod reproduce;
@@ -144,6 +145,8 @@ pub enum Command {
     MinBudget(analysis::MinBudgetArgs),
     /// Two-step task: stay probabilities and reward / interaction effects per group, with tests.
     Stay(analysis::StayArgs),
+    /// Fit the simulated human (forget_prob, error_prob) to traced sessions; write a profile file.
+    FitHuman(fit_human::FitHumanArgs),
     /// Mean curves per group (with a standard-error band) from a dataset's series, changes marked.
     Plot(plot::PlotArgs),
     /// Run the paper's experiments and write its figures and a claim-by-claim report.
@@ -218,6 +221,7 @@ pub fn execute(cli: &Cli) -> Result<(), Failure> {
         Command::Stats(args) => analysis::stats(args),
         Command::Stay(args) => analysis::stay(args),
         Command::MinBudget(args) => analysis::min_budget(args),
+        Command::FitHuman(args) => fit_human::fit_human(args),
         Command::Plot(args) => plot::plot(args),
         Command::Reproduce(args) => reproduce::command(args),
         Command::Bench(args) => bench::command(args),

@@ -13,6 +13,7 @@ use crate::env::registry;
 use crate::params::{Controller, Params, Profile};
 use crate::run;
 use crate::schedule::Schedule;
+use crate::sweep::file::{UserProfile, load_profiles};
 
 /// `mbmf run`.
 #[derive(Debug, Clone, Args)]
@@ -62,6 +63,13 @@ pub struct RunArgs {
     /// --reward-source) override its fields.
     #[arg(long, value_enum)]
     pub profile: Option<Profile>,
+    /// A profile file ([profiles.NAME] tables, as mbmf fit-human writes): the human of its
+    /// profile --profile-name (or of its only profile); the human's flags override its fields.
+    #[arg(long, value_name = "FILE", conflicts_with = "profile")]
+    pub profile_file: Option<PathBuf>,
+    /// Which profile of --profile-file to use (needed when it holds several).
+    #[arg(long, value_name = "NAME", requires = "profile_file")]
+    pub profile_name: Option<String>,
     /// Every other parameter.
     #[command(flatten)]
     pub params: ParamArgs,
@@ -77,9 +85,47 @@ pub struct RunArgs {
     pub trace: bool,
 }
 
+/// The profile of `--profile-file` that `--profile-name` names (or its only one).
+fn file_profile(args: &RunArgs) -> Result<Option<UserProfile>> {
+    let Some(path) = &args.profile_file else {
+        return Ok(None);
+    };
+    let profiles = load_profiles(path).map_err(|e| anyhow!("--profile-file: {e}"))?;
+    let names = || {
+        profiles
+            .iter()
+            .map(|u| u.name.as_str())
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let chosen = match &args.profile_name {
+        Some(name) => {
+            let wanted = name.trim().to_ascii_lowercase().replace('_', "-");
+            profiles.iter().find(|u| u.name == wanted).ok_or_else(|| {
+                anyhow!(
+                    "--profile-name {name}: {} has no such profile; its profiles: {}",
+                    path.display(),
+                    names()
+                )
+            })?
+        }
+        None if profiles.len() == 1 => &profiles[0],
+        None => {
+            return Err(anyhow!(
+                "--profile-file {} holds {} profiles: choose one with --profile-name ({})",
+                path.display(),
+                profiles.len(),
+                names()
+            ));
+        }
+    };
+    Ok(Some(chosen.clone()))
+}
+
 /// The validated parameters of each controller's runs, in `--controller` order.
 fn controller_params(args: &RunArgs) -> Result<Vec<Params>> {
     let mut all = Vec::new();
+    let from_file = file_profile(args)?;
     for &controller in &args.controller {
         let profile = args.profile.unwrap_or(Profile::None);
         let mut params = Params {
@@ -91,6 +137,18 @@ fn controller_params(args: &RunArgs) -> Result<Vec<Params>> {
             babbling: registry::default_babbling(&args.task),
             ..Params::default()
         };
+        if let Some(user) = &from_file {
+            if let Some(key) = user.apply_human(&mut params) {
+                return Err(anyhow!(
+                    "--profile-file: profile '{}' sets {}, which is not the human's; mbmf run \
+                     takes the human's parameters from a profile file (use the profile in a \
+                     sweep file for the others)",
+                    user.name,
+                    key.name()
+                ));
+            }
+            params.profile = Profile::Custom;
+        }
         args.params.apply(&mut params);
         // Setting the human's fields without a profile describes a custom human.
         if args.profile.is_none() && args.params.given.iter().any(|(p, _)| p.in_human) {

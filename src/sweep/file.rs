@@ -32,6 +32,7 @@ pub const TOP_LEVEL: &[&str] = &[
     "grid",
     "zip",
     "profiles",
+    "profile_file",
 ];
 /// Keys of a range table.
 const RANGE_KEYS: &[&str] = &["from", "to", "steps", "by", "log"];
@@ -508,6 +509,74 @@ impl Parser<'_> {
                 });
             }
             self.profiles.push(UserProfile { name, values });
+        }
+        Ok(())
+    }
+
+    /// `profile_file = "F"` (or a list of files): the `[profiles.NAME]` tables of a profile file
+    /// (`mbmf fit-human` writes them), its path relative to this file, join this file's own.
+    fn profile_file(
+        &mut self,
+        key: &Spanned<std::borrow::Cow<'_, str>>,
+        value: &Spanned<DeValue<'_>>,
+        dir: &Path,
+    ) -> Result<(), SweepError> {
+        thread_local! {
+            /// Whether a profile file is being read, which may not name another.
+            static READING: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+        }
+        if READING.get() {
+            return Err(self.src.err(
+                &key.span(),
+                "profile_file",
+                "a profile file cannot name another profile file".to_owned(),
+            ));
+        }
+        let paths: Vec<String> = match value.get_ref() {
+            DeValue::String(s) => vec![s.to_string()],
+            DeValue::Array(items) => items
+                .iter()
+                .map(|i| match i.get_ref() {
+                    DeValue::String(s) => Some(s.to_string()),
+                    _ => None,
+                })
+                .collect::<Option<_>>()
+                .unwrap_or_default(),
+            _ => Vec::new(),
+        };
+        if paths.is_empty() {
+            return Err(self.src.err(
+                &value.span(),
+                "profile_file",
+                "key 'profile_file': the path of a profile file (a string, or a list of them), \
+                 relative to this sweep file"
+                    .to_owned(),
+            ));
+        }
+        for path in paths {
+            READING.set(true);
+            let loaded = load_profiles(&dir.join(&path));
+            READING.set(false);
+            let loaded = loaded.map_err(|e| {
+                self.src.err(
+                    &key.span(),
+                    "profile_file",
+                    format!("profile_file '{path}': {e}"),
+                )
+            })?;
+            for profile in loaded {
+                if self.profiles.iter().any(|u| u.name == profile.name) {
+                    return Err(self.src.err(
+                        &key.span(),
+                        "profile_file",
+                        format!(
+                            "profile_file '{path}' defines profile '{}', which is already defined",
+                            profile.name
+                        ),
+                    ));
+                }
+                self.profiles.push(profile);
+            }
         }
         Ok(())
     }
@@ -1098,6 +1167,55 @@ fn tasks(fixed: &[(Key, Value)], axes: &[Axis], profiles: &[UserProfile]) -> Vec
     tasks
 }
 
+/// The `[profiles.NAME]` tables of the profile file at `path` (what `mbmf fit-human` writes):
+/// TOML in the syntax of a sweep file that holds profiles only.
+pub fn load_profiles(path: &Path) -> Result<Vec<UserProfile>, SweepError> {
+    let sweep = Sweep::load(path)?;
+    let file = sweep.file.clone();
+    let stray = sweep
+        .sources
+        .iter()
+        .find(|s| !s.section.starts_with("[profiles."));
+    if let Some(stray) = stray {
+        return Err(SweepError::Invalid {
+            file,
+            line: stray.line,
+            key: stray.key.name().to_owned(),
+            message: format!(
+                "a profile file holds [profiles.NAME] tables only; '{}' is set in {}",
+                stray.key.name(),
+                stray.section
+            ),
+        });
+    }
+    if sweep.profiles.is_empty() {
+        return Err(SweepError::Invalid {
+            file,
+            line: 1,
+            key: String::new(),
+            message: "no [profiles.NAME] table: a profile file defines at least one profile"
+                .to_owned(),
+        });
+    }
+    Ok(sweep.profiles)
+}
+
+impl UserProfile {
+    /// Sets the human's parameters this profile gives in `params`; other keys are left to the
+    /// caller (`None` when it sets none, else the first of them).
+    pub fn apply_human(&self, params: &mut Params) -> Option<Key> {
+        let mut other = None;
+        for (key, value) in &self.values {
+            if key.is_human() {
+                keys::apply(*key, value, params);
+            } else if other.is_none() {
+                other = Some(*key);
+            }
+        }
+        other
+    }
+}
+
 impl Sweep {
     /// Reads and parses the sweep file at `path`.
     pub fn load(path: &Path) -> Result<Sweep, SweepError> {
@@ -1195,6 +1313,7 @@ impl Sweep {
                 "grid" => p.grid(table(&p)?)?,
                 "zip" => p.zip(k, v)?,
                 "profiles" => p.profiles(table(&p)?)?,
+                "profile_file" => p.profile_file(k, v, dir)?,
                 _ => {
                     let message = if let Some(key) = Key::lookup(&name) {
                         format!(

@@ -14,7 +14,8 @@
 //! 4. the environment's outcome (pairs with several outcomes only),
 //! 5. the human's attentiveness at a nuisance opportunity (SPEC 11.2),
 //! 6. the human's attentiveness at a human-reward opportunity (SPEC 11.1),
-//! 7. the human's attentiveness at a congratulation or punishment opportunity;
+//! 7. the human's attentiveness at a congratulation or punishment opportunity, then (with
+//!    `error_prob` above 0, when every action is one) the human's judgment (SPEC 15);
 //!
 //! plus one draw for an initial state (at creation, at a reset step and at the end of babbling)
 //! when the environment has several. So a run simulated here can be compared bit for bit with the
@@ -392,6 +393,7 @@ impl NaiveRun {
             Event::Human(HumanChange::Interaction(i)) => self.human.interaction = i,
             Event::Human(HumanChange::Budget(n)) => self.budget_left = n,
             Event::Human(HumanChange::Forget(p)) => self.human.forget_prob = p,
+            Event::Human(HumanChange::ErrorProb(e)) => self.human.error_prob = e,
             Event::Human(HumanChange::Zeta(z)) => self.human.zeta = z,
             Event::Human(HumanChange::Profile(p)) => {
                 if let Some(h) = p.human(self.params.controller) {
@@ -490,20 +492,35 @@ impl NaiveRun {
         // 7. Feedback: G(s, a) = 1 after an attentive congratulation (or punishment), else 0.
         let mut given = false;
         if human_present && self.budget_left > 0 {
-            let opportunity = match interaction {
+            let merits = match interaction {
                 Interaction::Congratulation => self.is_relevant(s, a),
                 Interaction::Punishment => self.is_error(s, a),
                 Interaction::None | Interaction::Takeover | Interaction::Nuisance => false,
             };
+            let judging = matches!(
+                interaction,
+                Interaction::Congratulation | Interaction::Punishment
+            );
+            // SPEC 15: with an error probability every action is an opportunity; the attentive
+            // human then judges, wrongly with probability error_prob.
+            let e = self.human.error_prob;
+            let opportunity = if e > 0.0 { judging } else { merits };
             if opportunity {
                 if self.human_is_attentive() {
-                    given = true;
-                    if interaction == Interaction::Congratulation {
-                        self.stats.congratulations += 1;
+                    given = if e > 0.0 {
+                        let wrong = uniform(&mut self.rng) < e;
+                        if wrong { !merits } else { merits }
                     } else {
-                        self.stats.punishments += 1;
+                        true
+                    };
+                    if given {
+                        if interaction == Interaction::Congratulation {
+                            self.stats.congratulations += 1;
+                        } else {
+                            self.stats.punishments += 1;
+                        }
+                        self.spend_budget(t_exp);
                     }
-                    self.spend_budget(t_exp);
                 } else {
                     self.stats.forgotten += 1;
                 }
