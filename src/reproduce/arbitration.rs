@@ -599,7 +599,7 @@ fn fmt_k(x: f64) -> String {
 fn fmt_p(p: f64) -> String {
     if !p.is_finite() {
         "–".to_string()
-    } else if p < 1e-4 {
+    } else if p < 1e-3 {
         format!("{p:.0e}{}", stats::significance_stars(p))
     } else {
         format!("{p:.3}{}", stats::significance_stars(p))
@@ -1003,27 +1003,50 @@ fn verdict(c: &Condition, p_reward: &[f64], p_recovery: &[f64], ranks: &[usize])
         return String::new();
     };
     let (ec_reward, ec_cost) = (ec.mean(|r| r.reward), ec.mean(|r| r.cost));
+    let ec_help = ec.mean(|r| r.interactions);
+    // A rule helped more (or less) by the human than EC says so beside its name.
+    let named = |rule: &str, cell: &Cell, extra: Option<String>| {
+        let help = cell.mean(|r| r.interactions);
+        let mut notes: Vec<String> = extra.into_iter().collect();
+        if help.is_finite() && ec_help.is_finite() && (help - ec_help).abs() > 0.5 {
+            notes.push(format!("{help:.0} interactions against {ec_help:.0}"));
+        }
+        if notes.is_empty() {
+            rule.to_string()
+        } else {
+            format!("{rule} ({})", notes.join(", "))
+        }
+    };
+    let p_after = holm_vs_reference(c, |r| r.reward_after);
     let mut better_cheaper = Vec::new();
     let mut better_dearer = Vec::new();
     let mut worse = Vec::new();
     let mut faster = Vec::new();
+    let mut more_after = Vec::new();
     for (i, (rule, cell)) in c.cells.iter().enumerate() {
         let reward = cell.mean(|r| r.reward);
         let cost = cell.mean(|r| r.cost);
+        let dearer = Some(format!("cost x{:.1}", cost / ec_cost));
         if p_reward[i] < 0.05 && reward > ec_reward {
             if cost <= ec_cost {
-                better_cheaper.push(rule.as_str());
+                better_cheaper.push(named(rule, cell, None));
             } else {
-                better_dearer.push(format!("{rule} (cost x{:.1})", cost / ec_cost));
+                better_dearer.push(named(rule, cell, dearer.clone()));
             }
         } else if p_reward[i] < 0.05 && reward < ec_reward {
-            worse.push(rule.as_str());
+            worse.push(rule.clone());
         }
         if c.change.is_some()
             && p_recovery[i] < 0.05
             && cell.mean(|r| r.recovery) < ec.mean(|r| r.recovery)
         {
-            faster.push(format!("{rule} (cost x{:.1})", cost / ec_cost));
+            faster.push(named(rule, cell, dearer.clone()));
+        }
+        if c.change.is_some()
+            && p_after[i] < 0.05
+            && cell.mean(|r| r.reward_after) > ec.mean(|r| r.reward_after)
+        {
+            more_after.push(named(rule, cell, dearer));
         }
     }
     let list = |v: &[String]| {
@@ -1043,17 +1066,17 @@ fn verdict(c: &Condition, p_reward: &[f64], p_recovery: &[f64], ranks: &[usize])
     let mut t = format!(
         "Against {REFERENCE} (Holm p < 0.05): more reward at no more cost: {}; more reward at \
          a higher cost: {}; less reward: {}.",
-        list(
-            &better_cheaper
-                .iter()
-                .map(|s| s.to_string())
-                .collect::<Vec<_>>()
-        ),
+        list(&better_cheaper),
         list(&better_dearer),
-        list(&worse.iter().map(|s| s.to_string()).collect::<Vec<_>>()),
+        list(&worse),
     );
     if c.change.is_some() {
-        let _ = write!(t, " Recovers faster: {}.", list(&faster));
+        let _ = write!(
+            t,
+            " First reward after the change sooner: {}. More reward after the change: {}.",
+            list(&faster),
+            list(&more_after)
+        );
     }
     let _ = writeln!(
         t,
