@@ -74,10 +74,14 @@ fn learn(spec: &Spec) -> Learned {
             model: model.view(),
             scratch: &mut scratch,
             task_state: &mut [],
+            eligibility: &mut [],
+            eligible: &mut [],
+            tally: &mut [],
             rng: &mut rng,
             cursor: &mut cursor,
             stats: &mut stats,
             series: &mut series,
+            trace: Default::default(),
             plan: None,
         };
         while view.cursor.t < total {

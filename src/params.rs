@@ -53,6 +53,20 @@ pub enum ConfigError {
         /// What the task accepts (from the task registry).
         accepted: String,
     },
+    /// Two parameters that cannot be used together.
+    #[error("{name} = {value} cannot be used with {with} = {with_value}: {why}")]
+    Incompatible {
+        /// The parameter refused (its output column and sweep key).
+        name: &'static str,
+        /// Its value.
+        value: String,
+        /// The parameter it conflicts with.
+        with: &'static str,
+        /// That one's value.
+        with_value: String,
+        /// Why, and what to do instead.
+        why: &'static str,
+    },
     /// A schedule of changes that does not fit the task or the run (SPEC 10): the schedule's
     /// own message, as text, so that parameters do not depend on the schedule that uses them.
     #[error("{0}")]
@@ -326,6 +340,9 @@ crate::env::registry::task_params!(registry::registry {
         accepts "a learning rate in (0, 1]" if |x| x > 0.0 && x <= 1.0;
     flag gamma_mf: f64 = 0.9, "MF discount factor",
         accepts "a discount in [0, 1)" if |x| (0.0..1.0).contains(&x);
+    flag lambda_mf: f64 = 0.0, "MF replacing eligibility trace decay (SPEC 3.1)",
+        accepts "a decay in [0, 1]" if |x| (0.0..=1.0).contains(&x),
+        help ". 0 is the paper's one-step Q-learning; refused with vpi";
     flag gamma_mb: f64 = 0.95, "MB discount factor",
         accepts "a discount in [0, 1)" if |x| (0.0..1.0).contains(&x);
     flag tau: f64 = 0.02, "MC softmax temperature",
@@ -437,6 +454,12 @@ fn approx(x: f64) -> String {
 }
 
 impl Params {
+    /// Whether the run's MF learns with an eligibility trace (SPEC 3.1: `lambda_mf` > 0 and an
+    /// MF expert learning by Q-learning; `vpi`, whose MF is a Kalman filter, is refused).
+    pub fn uses_eligibility(&self) -> bool {
+        self.lambda_mf > 0.0 && self.controller.runs_mf() && self.controller != Controller::Vpi
+    }
+
     /// Checks that, with an environment whose goal gives `goal_reward`, no value the run computes
     /// can exceed [`VALUE_LIMIT`]: action values stay within max(|q_init|, |r| / (1 - gamma)) for
     /// each discount in use, and the total reward within |r| x steps. Call after [`validate`].

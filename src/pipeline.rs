@@ -92,6 +92,11 @@ pub trait Writer {
     type Error;
     /// Writes the rows of a finished batch; `profiles` as in [`Group::profiles`].
     fn write(&mut self, batch: &Batch, profiles: &[usize]) -> Result<(), Self::Error>;
+
+    /// Whether the batches written record the per-step trace (SPEC 14).
+    fn traces(&self) -> bool {
+        false
+    }
 }
 
 /// Simulation of groups of runs into one writer.
@@ -125,12 +130,13 @@ impl<W: Writer> Job<'_, W> {
             return Err(Interrupted.into());
         }
         let writer = &mut self.writer;
+        let trace = writer.traces();
         let flow = batches(
             spec,
             &group.configs,
             self.schedules,
             &group.schedules,
-            self.batch_size,
+            (self.batch_size, trace),
             progress,
             |batch, first| {
                 let profiles = group
@@ -161,20 +167,27 @@ pub fn simulate<E: From<ConfigError> + From<MemoryError>>(
         progress(n);
         ControlFlow::Continue(())
     };
-    batches(spec, configs, &[], &[], batch_size, go_on, |b, _| {
-        on_batch(b)
-    })
+    batches(
+        spec,
+        configs,
+        &[],
+        &[],
+        (batch_size, false),
+        go_on,
+        |b, _| on_batch(b),
+    )
     .map(|_| ())
 }
 
-/// The loop of [`Job::simulate`]: `on_batch` gets each finished batch and the position of its
-/// first run in `configs`; `Break` when `progress` stopped it.
+/// The loop of [`Job::simulate`]: `on_batch` gets each finished batch (of `batch_size` runs,
+/// recording the trace when `trace`) and the position of its first run in `configs`; `Break`
+/// when `progress` stopped it.
 fn batches<E: From<ConfigError> + From<MemoryError>>(
     spec: &Arc<Spec>,
     configs: &[RunConfig],
     schedules: &[Schedule],
     run_schedule: &[usize],
-    batch_size: usize,
+    (batch_size, trace): (usize, bool),
     mut progress: impl FnMut(u64) -> ControlFlow<()>,
     mut on_batch: impl FnMut(&Batch, usize) -> Result<(), E>,
 ) -> Result<ControlFlow<()>, E> {
@@ -183,9 +196,15 @@ fn batches<E: From<ConfigError> + From<MemoryError>>(
         let which = run_schedule
             .get(k * size..k * size + chunk.len())
             .unwrap_or(&[]);
-        let bytes = chunk.iter().map(|c| bytes_per_run(spec, &c.params)).sum();
+        let bytes = chunk
+            .iter()
+            .map(|c| bytes_per_run(spec, &c.params, trace))
+            .sum();
         reserve(bytes, chunk.len())?;
         let mut batch = Batch::with_schedules(Arc::clone(spec), chunk.to_vec(), schedules, which)?;
+        if trace {
+            batch.record_trace();
+        }
         let longest = chunk
             .iter()
             .map(|c| run_steps(&c.params))
@@ -268,12 +287,13 @@ pub fn tables(
     ])
 }
 
-/// A runs.parquet and a series.parquet being written side by side in one folder, batch by
-/// batch, each under a temporary name until [`Tables::finish`]. Both carry the same run id, so
-/// a reader can tell they belong together.
+/// A runs.parquet and a series.parquet (and, when traced, a trace.parquet) being written side
+/// by side in one folder, batch by batch, each under a temporary name until
+/// [`Tables::finish`]. All carry the same run id, so a reader can tell they belong together.
 pub struct Tables {
     runs: ParquetSink,
     series: ParquetSink,
+    trace: Option<ParquetSink>,
     seeds: u64,
     names: Vec<String>,
 }
@@ -293,14 +313,35 @@ impl Tables {
         Tables {
             runs: ParquetSink::new(&dir.join("runs.parquet"), metadata),
             series: ParquetSink::new(&dir.join("series.parquet"), series),
+            trace: None,
             seeds,
             names,
         }
     }
 
+    /// Also writes `dir/trace.parquet`, the per-step trace (SPEC 14), with the batches
+    /// recording it.
+    pub fn with_trace(mut self, dir: &Path) -> Tables {
+        let metadata = output::with_schema(self.runs.metadata(), output::provenance::TRACE_SCHEMA);
+        self.trace = Some(ParquetSink::new(&dir.join("trace.parquet"), metadata));
+        self
+    }
+
     /// Completes both files; returns their paths (runs first).
     pub fn finish(self) -> Result<[PathBuf; 2], OutputError> {
-        Ok([self.runs.finish()?, self.series.finish()?])
+        let (pair, trace) = self.finish_all()?;
+        debug_assert!(trace.is_none(), "a traced run commits three files");
+        Ok(pair)
+    }
+
+    /// Completes every file; returns the paths of runs and series, and of the trace when
+    /// written.
+    pub fn finish_all(self) -> Result<([PathBuf; 2], Option<PathBuf>), OutputError> {
+        let trace = match self.trace {
+            Some(t) => Some(t.finish()?),
+            None => None,
+        };
+        Ok(([self.runs.finish()?, self.series.finish()?], trace))
     }
 }
 
@@ -309,8 +350,15 @@ impl Writer for Tables {
 
     fn write(&mut self, batch: &Batch, profiles: &[usize]) -> Result<(), OutputError> {
         let [runs, series] = tables(batch, self.seeds, &self.names, profiles)?;
+        if let Some(sink) = &mut self.trace {
+            sink.write(&output::trace_batch(batch)?)?;
+        }
         self.runs.write(&runs)?;
         self.series.write(&series)
+    }
+
+    fn traces(&self) -> bool {
+        self.trace.is_some()
     }
 }
 
@@ -321,16 +369,25 @@ const SERIES_ROW_BYTES: u64 = 512;
 /// Estimated bytes of a run's row in runs.parquet and its per-run records.
 const RUN_ROW_BYTES: u64 = 2048;
 
+/// Estimated bytes of a trace row as Arrow columns (about 41: 8 for the run index, 4 each for
+/// step and states, 2 for the action, 8 each for reward and p_mb, a byte per dictionary code)
+/// and in the Parquet writer's buffers until its row group is flushed.
+pub const TRACE_ROW_BYTES: u64 = 64;
+
 /// Bytes one run of `params` on `spec` holds while its batch is simulated and written: the
 /// per-run tables of [`Batch`] (Q tables, averaged distributions, MB window and model, per-state
-/// costs) and its checkpoint rows, also as Arrow columns. An estimate, accurate to a few percent
-/// where it matters (large worlds, long windows, many checkpoints).
-pub fn bytes_per_run(spec: &Spec, params: &Params) -> u64 {
-    memory_parts(spec, params).iter().map(|&(b, _)| b).sum()
+/// costs) and its checkpoint rows, also as Arrow columns, and with `trace` its trace rows (one
+/// per experiment step) likewise. An estimate, accurate to a few percent where it matters
+/// (large worlds, long windows, many checkpoints).
+pub fn bytes_per_run(spec: &Spec, params: &Params, trace: bool) -> u64 {
+    memory_parts(spec, params, trace)
+        .iter()
+        .map(|&(b, _)| b)
+        .sum()
 }
 
 /// The parts of [`bytes_per_run`], each with the flag that shrinks it.
-fn memory_parts(spec: &Spec, params: &Params) -> [(u64, &'static str); 3] {
+fn memory_parts(spec: &Spec, params: &Params, trace: bool) -> [(u64, &'static str); 4] {
     // The batch's own table of per-run arrays, sized for this run alone; the MB window's ring
     // apart, as it has its own flag.
     let sizes = crate::batch::Sizes::of(spec, std::iter::once(params), spec.outcome_state.len());
@@ -350,6 +407,15 @@ fn memory_parts(spec: &Spec, params: &Params) -> [(u64, &'static str); 3] {
         (
             rows.saturating_mul(row_bytes),
             "raise --checkpoint or lower --steps",
+        ),
+        (
+            if trace {
+                let rows = crate::batch::trace_rows(params) as u64;
+                rows.saturating_mul(crate::batch::trace::ROW_BYTES as u64 + TRACE_ROW_BYTES)
+            } else {
+                0
+            },
+            "lower --steps, or leave out --trace",
         ),
     ]
 }
@@ -421,11 +487,12 @@ pub fn plan_batch(
     spec: &Spec,
     configs: &[RunConfig],
     requested: usize,
+    trace: bool,
 ) -> Result<BatchPlan, MemoryError> {
     let bound = limits::memory();
     let Some(largest) = configs
         .iter()
-        .max_by_key(|c| bytes_per_run(spec, &c.params))
+        .max_by_key(|c| bytes_per_run(spec, &c.params, trace))
     else {
         return Ok(BatchPlan {
             size: requested.max(1),
@@ -436,12 +503,12 @@ pub fn plan_batch(
             bound,
         });
     };
-    let per_run = bytes_per_run(spec, &largest.params).max(1);
+    let per_run = bytes_per_run(spec, &largest.params, trace).max(1);
     if let Some(b) = &bound
         && per_run > b.headroom()
     {
-        let parts = memory_parts(spec, &largest.params);
-        let (_, fix) = parts.iter().max_by_key(|&&(b, _)| b).expect("three parts");
+        let parts = memory_parts(spec, &largest.params, trace);
+        let (_, fix) = parts.iter().max_by_key(|&&(b, _)| b).expect("four parts");
         return Err(MemoryError::RunTooLarge {
             need: human(per_run),
             room: human(b.headroom()),
@@ -461,8 +528,9 @@ pub fn plan_batch_size(
     spec: &Spec,
     configs: &[RunConfig],
     requested: usize,
+    trace: bool,
 ) -> Result<usize, MemoryError> {
-    plan_batch(spec, configs, requested).map(|p| p.size)
+    plan_batch(spec, configs, requested, trace).map(|p| p.size)
 }
 
 /// The plan for runs of at most `per_run` bytes under `bound`: `requested`, lowered to what the
@@ -524,7 +592,7 @@ mod tests {
                 .collect();
             let batch = Batch::new(Arc::clone(&spec), configs).expect("valid");
             let actual = batch.state_bytes() as f64 / 4.0;
-            let estimate = bytes_per_run(&spec, &params) as f64;
+            let estimate = bytes_per_run(&spec, &params, false) as f64;
             // The estimate adds the Arrow rows written from the batch: at least the state, at
             // most the state plus those rows and a few percent.
             let rows = crate::batch::checkpoint_count(&params) as f64;

@@ -66,6 +66,8 @@ pub struct Job {
     pub set: Vec<&'static str>,
     /// The command recorded in both files' provenance (`mbmf_command`).
     pub command: String,
+    /// Also write `trace.parquet`, one row per experiment step of every run (SPEC 14).
+    pub trace: bool,
 }
 
 impl Job {
@@ -84,6 +86,7 @@ impl Job {
             batch_size: 4096,
             set: Vec::new(),
             command: format!("mbmf::run {task}"),
+            trace: false,
         }
     }
 
@@ -243,10 +246,10 @@ impl Run {
         // Memory first (a run that cannot fit is refused whatever the disk), on one run per
         // configuration: the batch plan depends on the largest run, not on how many there are.
         let firsts = job.firsts();
-        pipeline::plan_batch_size(&job.spec, &firsts, job.batch_size)?;
+        pipeline::plan_batch_size(&job.spec, &firsts, job.batch_size, job.trace)?;
         let mut size = sizing::Size::default();
         for p in &job.configs {
-            size.add(u128::from(job.runs), p);
+            size.add(u128::from(job.runs), p, job.trace);
         }
         let shrink = sizing::Shrink {
             runs: "lower --runs (runs per controller) or give fewer --controller".into(),
@@ -256,7 +259,7 @@ impl Run {
         };
         // With `force` the results already there are replaced, so their space counts as free.
         let credit = if job.force {
-            ["runs.parquet", "series.parquet"]
+            ["runs.parquet", "series.parquet", "trace.parquet"]
                 .iter()
                 .filter_map(|f| std::fs::metadata(job.out.join(f)).ok())
                 .map(|m| m.len())
@@ -288,7 +291,7 @@ impl Run {
                 estimate.threads
             ));
         }
-        self.batch_size = pipeline::plan_batch_size(&job.spec, &firsts, job.batch_size)?;
+        self.batch_size = pipeline::plan_batch_size(&job.spec, &firsts, job.batch_size, job.trace)?;
         Ok(note)
     }
 
@@ -341,6 +344,8 @@ pub struct Row {
 pub struct Done {
     /// runs.parquet and series.parquet, committed.
     pub files: [PathBuf; 2],
+    /// trace.parquet, committed with them, when the job asked for the trace.
+    pub trace: Option<PathBuf>,
     /// Runs simulated.
     pub runs: u64,
     /// Seconds from the first step to the commit.
@@ -377,10 +382,14 @@ impl Open {
         let per = u64::from(job.runs);
         let schedules = [job.schedule.clone()];
         let metadata = output::metadata(&job.command, job.seed, None);
+        let mut writer = pipeline::Tables::new(&staging.0, metadata, per, vec![]);
+        if job.trace {
+            writer = writer.with_trace(&staging.0);
+        }
         let mut pipeline_job = pipeline::Job {
             schedules: &schedules,
             batch_size: run.batch_size,
-            writer: pipeline::Tables::new(&staging.0, metadata, per, vec![]),
+            writer,
         };
         let mut summary = Summary::new(&job.out);
         let started = std::time::Instant::now();
@@ -402,23 +411,26 @@ impl Open {
             start = end;
         }
         let rows = summary.rows()?;
-        let [runs_staged, series_staged] = pipeline_job.writer.finish()?;
+        let ([runs_staged, series_staged], trace_staged) = pipeline_job.writer.finish_all()?;
         // The last chance to stop with nothing written: after the commit the run is complete.
         if stop.load(Ordering::Relaxed) {
             return Err(Interrupted.into());
         }
         let [runs_target, series_target] = targets;
-        output::atomic::commit_pair(
-            (&series_staged, &series_target),
-            (&runs_staged, &runs_target),
-        )
-        .map_err(io(format!(
+        let trace_target = job.out.join("trace.parquet");
+        let mut tables = Vec::new();
+        if let Some(staged) = &trace_staged {
+            tables.push(("trace", staged.as_path(), trace_target.as_path()));
+        }
+        tables.push(("series", &series_staged, &series_target));
+        output::atomic::commit(&tables, (&runs_staged, &runs_target)).map_err(io(format!(
             "cannot move the results into {}",
             job.out.display()
         )))?;
         drop(staging);
         Ok(Done {
             files: [runs_target, series_target],
+            trace: trace_staged.map(|_| trace_target),
             runs: total,
             seconds: started.elapsed().as_secs_f64(),
             rows,

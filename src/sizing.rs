@@ -16,6 +16,9 @@ use crate::params::{ConfigError, Params};
 pub const RUN_ROW_DISK_BYTES: u64 = 64;
 /// Bytes a checkpoint row takes in series.parquet, compressed: measured 5.5 B on tidy1.
 pub const SERIES_ROW_DISK_BYTES: u64 = 6;
+/// Bytes a step's row takes in trace.parquet, compressed: measured 1.5 B on tidy1 (`ec`, 10,000
+/// steps) and 0.6 B on twostep, rounded up for larger worlds (`docs/guide/trace.md`).
+pub const TRACE_ROW_DISK_BYTES: u64 = 4;
 /// Longest estimated time accepted for one process: a job that would run for more than a year
 /// on this machine is surely a mistake (or needs shards).
 pub const MAX_SECONDS: f64 = 365.0 * 86_400.0;
@@ -38,6 +41,8 @@ pub struct Size {
     pub agent_steps: u128,
     /// Checkpoint rows of series.parquet.
     pub series_rows: u128,
+    /// Step rows of trace.parquet (0 without the trace).
+    pub trace_rows: u128,
     /// False when the counts were extrapolated from a sample of the configurations (a shard of
     /// a huge grid): then they are estimates.
     pub exact: bool,
@@ -49,28 +54,37 @@ impl Default for Size {
             runs: 0,
             agent_steps: 0,
             series_rows: 0,
+            trace_rows: 0,
             exact: true,
         }
     }
 }
 
 impl Size {
-    /// Adds `runs` runs of `params`.
-    pub fn add(&mut self, runs: u128, params: &Params) {
+    /// Adds `runs` runs of `params`, with their trace rows when `trace`.
+    pub fn add(&mut self, runs: u128, params: &Params, trace: bool) {
         let steps = u128::from(params.babbling) + u128::from(params.steps);
         let rows = crate::batch::checkpoint_count(params) as u128;
         self.runs = self.runs.saturating_add(runs);
         self.agent_steps = self.agent_steps.saturating_add(runs.saturating_mul(steps));
         self.series_rows = self.series_rows.saturating_add(runs.saturating_mul(rows));
+        if trace {
+            let rows = crate::batch::trace_rows(params) as u128;
+            self.trace_rows = self.trace_rows.saturating_add(runs.saturating_mul(rows));
+        }
     }
 
-    /// Estimated bytes of both tables on disk.
+    /// Estimated bytes of every table on disk.
     pub fn output_bytes(&self) -> u128 {
         self.runs
             .saturating_mul(u128::from(RUN_ROW_DISK_BYTES))
             .saturating_add(
                 self.series_rows
                     .saturating_mul(u128::from(SERIES_ROW_DISK_BYTES)),
+            )
+            .saturating_add(
+                self.trace_rows
+                    .saturating_mul(u128::from(TRACE_ROW_DISK_BYTES)),
             )
     }
 
@@ -79,18 +93,27 @@ impl Size {
         self.agent_steps > HUGE_AGENT_STEPS || self.output_bytes() > 1 << 30
     }
 
-    /// `N runs, A agent-steps, about B of output (R runs rows, S series rows)`.
+    /// `N runs, A agent-steps, about B of output (R runs rows, S series rows[, T trace
+    /// rows])`.
     pub fn line(&self) -> String {
         let about = if self.exact { "" } else { "about " };
         format!(
             "{about}{} runs, {about}{} agent-steps (babbling included), about {} of output \
-             ({} runs rows, {} series rows)",
+             ({})",
             self.runs,
             self.agent_steps,
             human_bytes(self.output_bytes()),
-            self.runs,
-            self.series_rows
+            self.rows()
         )
+    }
+
+    /// `R runs rows, S series rows` and, with the trace, `, T trace rows`.
+    fn rows(&self) -> String {
+        let mut rows = format!("{} runs rows, {} series rows", self.runs, self.series_rows);
+        if self.trace_rows > 0 {
+            rows += &format!(", {} trace rows", self.trace_rows);
+        }
+        rows
     }
 }
 
@@ -162,24 +185,27 @@ pub fn check_size(size: &Size, out: &Path, credit: u64, shrink: &Shrink) -> Resu
         let bytes = size.output_bytes();
         let free = free.saturating_add(credit);
         if bytes > u128::from(free) {
-            let series_heavy = size
+            let series = size
                 .series_rows
-                .saturating_mul(u128::from(SERIES_ROW_DISK_BYTES))
-                > size.runs.saturating_mul(u128::from(RUN_ROW_DISK_BYTES));
+                .saturating_mul(u128::from(SERIES_ROW_DISK_BYTES));
+            let trace = size
+                .trace_rows
+                .saturating_mul(u128::from(TRACE_ROW_DISK_BYTES));
+            let runs = size.runs.saturating_mul(u128::from(RUN_ROW_DISK_BYTES));
+            let fix = if trace > series && trace > runs {
+                "leave out the trace (--trace, or trace = true in a sweep file), or lower the \
+                 steps or the runs"
+                    .to_string()
+            } else if series > runs {
+                shrink.series.clone()
+            } else {
+                shrink.runs.clone()
+            };
             return Err(SizeError::TooLarge {
-                size: format!(
-                    "{} ({} runs rows, {} series rows)",
-                    human_bytes(bytes),
-                    size.runs,
-                    size.series_rows
-                ),
+                size: format!("{} ({})", human_bytes(bytes), size.rows()),
                 free: human_bytes(u128::from(free)),
                 dir: out.display().to_string(),
-                fix: if series_heavy {
-                    shrink.series.clone()
-                } else {
-                    shrink.runs.clone()
-                },
+                fix,
             });
         }
     }
@@ -357,13 +383,21 @@ mod tests {
             ..Params::default()
         };
         let mut size = Size::default();
-        size.add(3, &params);
+        size.add(3, &params, false);
         // 1000 steps every 300: rows at 300, 600, 900 and the last.
         assert_eq!(
             (size.runs, size.agent_steps, size.series_rows),
             (3, 3030, 12)
         );
         assert_eq!(size.output_bytes(), 3 * 64 + 12 * 6);
+        // The trace: a row per experiment step, babbling not traced.
+        size.add(2, &params, true);
+        assert_eq!(size.trace_rows, 2000);
+        assert_eq!(size.output_bytes(), 5 * 64 + 20 * 6 + 2000 * 4);
+        assert!(
+            size.line()
+                .ends_with("(5 runs rows, 20 series rows, 2000 trace rows)")
+        );
     }
 
     #[test]

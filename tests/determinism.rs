@@ -60,6 +60,21 @@ fn configs() -> Vec<RunConfig> {
         window_n: 3,
         ..base
     });
+    // SPEC 3.1's eligibility trace, beside runs without: batches mixing both cut anywhere.
+    for controller in [Controller::Mf, Controller::Ec] {
+        params.push(Params {
+            controller,
+            lambda_mf: 0.8,
+            ..base
+        });
+    }
+    params.push(Params {
+        controller: Controller::Fixed,
+        combine: mbmf::params::Combine::Mix,
+        lambda_mf: 1.0,
+        human: human(Interaction::Congratulation, 40),
+        ..base
+    });
     let mut configs = Vec::new();
     for seed in [1, 2] {
         for &p in &params {
@@ -153,6 +168,23 @@ fn check_thread_and_batch_independence(spec: Arc<Spec>, configs: Vec<RunConfig>)
 fn tidy1_results_do_not_depend_on_thread_count_or_batch_size() {
     let spec = Arc::new(env::load("tidy1").unwrap());
     check_thread_and_batch_independence(spec, configs());
+}
+
+#[test]
+fn twostep_results_do_not_depend_on_thread_count_or_batch_size() {
+    let spec = Arc::new(env::load("twostep").unwrap());
+    let configs: Vec<RunConfig> = configs()
+        .into_iter()
+        .filter(|c| c.params.human.interaction == Interaction::None)
+        .map(|c| RunConfig {
+            params: Params {
+                tau: 0.2,
+                ..c.params
+            },
+            ..c
+        })
+        .collect();
+    check_thread_and_batch_independence(spec, configs);
 }
 
 #[test]

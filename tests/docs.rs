@@ -403,15 +403,18 @@ fn the_schema_page_is_what_the_files_carry() {
     let dir = TempDir::new().expect("a temporary folder");
     let out = dir.path().join("out");
     let status = mbmf()
-        .args(["run", "--runs", "1", "--steps", "200", "-q", "--out"])
+        .args([
+            "run", "--runs", "1", "--steps", "200", "--trace", "-q", "--out",
+        ])
         .arg(&out)
         .status()
         .expect("mbmf runs");
     assert!(status.success());
-    let generated = mbmf::output::columns::schema_markdown(
-        &schema_of(&out.join("runs.parquet")),
-        &schema_of(&out.join("series.parquet")),
-    );
+    let generated =
+        mbmf::output::columns::schema_markdown(
+            &schema_of(&out.join("runs.parquet")),
+            &schema_of(&out.join("series.parquet")),
+        ) + &mbmf::output::columns::trace_markdown(&schema_of(&out.join("trace.parquet")));
     assert!(generated.contains("| `kappa_coeff` | f64 | `kappa_coeff` | `9` |"));
     assert!(generated.contains("| `first_reward_step` | i64, null | steps |"));
     let page = repo().join("docs/schema.md");

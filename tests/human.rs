@@ -95,10 +95,14 @@ impl Solo {
             model: self.model.view(),
             scratch: &mut self.scratch,
             task_state: &mut [],
+            eligibility: &mut [],
+            eligible: &mut [],
+            tally: &mut [],
             rng: &mut self.rng,
             cursor: &mut self.cursor,
             stats: &mut self.stats,
             series: &mut self.series,
+            trace: Default::default(),
             plan: None,
         };
         step(&self.spec, &self.params, &mut view);

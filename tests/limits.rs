@@ -54,7 +54,7 @@ fn batch_in_150_mib() -> usize {
         checkpoint: 1,
         ..Params::default()
     };
-    let per_run = mbmf::pipeline::bytes_per_run(&spec, &params);
+    let per_run = mbmf::pipeline::bytes_per_run(&spec, &params, false);
     ((150u64 << 20) / 2 / per_run) as usize
 }
 

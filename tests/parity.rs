@@ -15,6 +15,7 @@ use std::sync::Arc;
 
 use mbmf::batch::{Batch, RunConfig};
 use mbmf::env::tidy::Boxes;
+use mbmf::env::twostep::{self, RC, RR, UC, UR};
 use mbmf::env::{self, Spec};
 use mbmf::params::{
     Combine, CongratulationEffect, Controller, HumanParams, Interaction, Params, RewardSource,
@@ -567,6 +568,85 @@ fn congratulation_takeover_and_punishment_with_budgets_match_the_naive_reference
             ..short(Controller::Ec, Selection::Argmax)
         });
         assert_parity(&spec, runs(&params, &[9]));
+    }
+}
+
+/// SPEC 3.1's eligibility trace: MF, EC, fixed with mix, reliability and MB (which ignores it)
+/// at lambda 0, 0.5 and 1, in one batch each.
+fn traced(base: Params) -> Vec<Params> {
+    let mut params = Vec::new();
+    for lambda_mf in [0.0, 0.5, 1.0] {
+        for (controller, combine) in [
+            (Controller::Mf, Combine::Select),
+            (Controller::Ec, Combine::Select),
+            (Controller::Fixed, Combine::Mix),
+            (Controller::Reliability, Combine::Select),
+            (Controller::Mb, Combine::Select),
+        ] {
+            params.push(Params {
+                controller,
+                combine,
+                lambda_mf,
+                ..base
+            });
+        }
+    }
+    params
+}
+
+#[test]
+fn eligibility_traces_on_tidy1_match_the_naive_reference() {
+    let mut params = traced(short(Controller::Mf, Selection::Softmax));
+    // With a human too (the step then keeps nothing between decisions).
+    params.push(Params {
+        lambda_mf: 0.9,
+        human: human(Interaction::Congratulation, 50),
+        ..short(Controller::Ec, Selection::Softmax)
+    });
+    params.push(Params {
+        lambda_mf: 0.9,
+        human: human(Interaction::Takeover, 50),
+        ..short(Controller::Mf, Selection::Softmax)
+    });
+    assert_parity(&spec("tidy1"), runs(&params, &[1, 2]));
+}
+
+#[test]
+fn the_two_step_task_with_and_without_traces_matches_the_naive_reference() {
+    // Babbling 101 ends mid-trial: the trace is cleared and the p drawn afresh there.
+    let base = Params {
+        tau: 0.2,
+        babbling: 101,
+        steps: 1000,
+        checkpoint: 100,
+        ..Params::default()
+    };
+    let mut params = traced(base);
+    params.push(Params {
+        controller: Controller::Vpi,
+        ..base
+    });
+    params.push(Params {
+        babbling: 0,
+        steps: 403,
+        lambda_mf: 1.0,
+        ..base
+    });
+    let spec = spec("twostep");
+    let configs = runs(&params, &[1, 2]);
+    assert_parity(&spec, configs.clone());
+
+    // The stay probabilities of the runs table from the engine's tally equal those counted
+    // from the naive run's list of trials.
+    let mut batch = Batch::new(Arc::clone(&spec), configs.clone()).expect("valid configs");
+    batch.run_to_end();
+    for (r, config) in configs.iter().enumerate() {
+        let mut naive = NaiveRun::new(&spec, config.params, config.seed, config.run_index);
+        naive.run_to_end();
+        let tally = batch.tally(r);
+        let engine = [RC, RR, UC, UR].map(|kind| twostep::stay(tally, kind));
+        assert_eq!(engine, naive.stays(), "{}", describe(config));
+        assert!(engine.iter().all(Option::is_some), "{}", describe(config));
     }
 }
 

@@ -1,8 +1,9 @@
 //! Reading result datasets into a small [`Table`] of Arrow columns, filtering rows and grouping
 //! runs by configuration with Arrow's compute kernels.
 //!
-//! A dataset is what `mbmf run --out DIR` writes (`DIR/runs.parquet`, `DIR/series.parquet`) or
-//! what `mbmf sweep --out DIR` writes (`DIR/runs/part-*.parquet`, `DIR/series/part-*.parquet`).
+//! A dataset is what `mbmf run --out DIR` writes (`DIR/runs.parquet`, `DIR/series.parquet`,
+//! with `--trace` `DIR/trace.parquet`) or what `mbmf sweep --out DIR` writes
+//! (`DIR/runs/part-*.parquet`, `DIR/series/part-*.parquet`, traced: `DIR/trace/part-*.parquet`).
 //! [`read_dataset`] accepts either folder, the `runs/` folder itself, or one `.parquet` file.
 //! Columns are cast on reading to one of five Arrow types (Float64, Int64, UInt64, Utf8,
 //! Boolean; all nullable): whatever the Parquet writer chose (i32 or u64, Utf8 or LargeUtf8,
@@ -10,7 +11,7 @@
 //! same way, and a dataset whose files disagree on an integer's signedness reads as Int64.
 
 use crate::suggest::closest;
-use crate::sweep::store::{self, RUNS_DIR, SERIES_DIR, SWEEP_FILE};
+use crate::sweep::store::{self, RUNS_DIR, SERIES_DIR, SWEEP_FILE, TRACE_DIR};
 use std::cmp::Ordering;
 use std::collections::BTreeSet;
 use std::fmt;
@@ -755,6 +756,7 @@ fn read_file(path: &Path) -> Result<(Table, Option<String>), DatasetError> {
 fn current_version(name: &str) -> u32 {
     let schema = match name {
         "series" => crate::output::provenance::SERIES_SCHEMA,
+        "trace" => crate::output::provenance::TRACE_SCHEMA,
         _ => crate::output::provenance::RUNS_SCHEMA,
     };
     schema
@@ -895,8 +897,9 @@ fn sweep_root(path: &Path) -> Option<PathBuf> {
     }
     let parent = path.parent()?;
     let sub = path.file_name()?;
-    ((sub == RUNS_DIR || sub == SERIES_DIR) && parent.join(SWEEP_FILE).is_file())
-        .then(|| parent.to_path_buf())
+    ((sub == RUNS_DIR || sub == SERIES_DIR || sub == TRACE_DIR)
+        && parent.join(SWEEP_FILE).is_file())
+    .then(|| parent.to_path_buf())
 }
 
 /// The committed parts of table `name` of the sweep folder `root` (given as `path`).
@@ -908,6 +911,15 @@ fn locate_sweep(
 ) -> Result<Located, DatasetError> {
     let committed = store::committed(root)?;
     let table_dir = root.join(name);
+    if name == TRACE_DIR && !committed.traced {
+        return Err(DatasetError::NotFound {
+            path: path.to_path_buf(),
+            table: name.to_owned(),
+            detail: "the sweep was run without the trace (add trace = true to a new sweep, or \
+                     pass --trace)"
+                .to_owned(),
+        });
+    }
     let mut warnings: Vec<String> = committed
         .strays
         .iter()
@@ -1031,6 +1043,23 @@ fn locate(path: &Path, name: &str, options: &ReadOptions) -> Result<Located, Dat
         Vec::new()
     };
     let runs_file = path.join("runs.parquet");
+    if name == TRACE_DIR && single.is_file() && runs_file.is_file() && parts.is_empty() {
+        // The trace of the last committed `mbmf run`, never one an earlier run left.
+        return match crate::output::atomic::committed_trace(path) {
+            Some(file) => Ok(Located {
+                source: file.display().to_string(),
+                files: vec![file],
+                trusted: true,
+                warnings,
+            }),
+            None => Err(not_found(format!(
+                "{} is not the trace of the run in {} (an earlier run's, or an unfinished \
+                 commit's); run again with --trace",
+                single.display(),
+                runs_file.display()
+            ))),
+        };
+    }
     if single.is_file() || (name == "series" && runs_file.is_file()) {
         if !parts.is_empty() {
             return Err(not_found(format!(
@@ -1170,6 +1199,13 @@ pub fn read_dataset(path: &Path, name: &str) -> Result<Table, DatasetError> {
 /// Reads the `runs` table of a dataset (see [`read_dataset`]).
 pub fn read_runs(path: &Path) -> Result<Table, DatasetError> {
     read_dataset(path, "runs")
+}
+
+/// Reads the `trace` table of a traced dataset (SPEC 14; see [`read_dataset`]): one row per run
+/// per experiment step, only what was committed with the runs. Integer columns read as Int64
+/// and the dictionary columns (`actor`, `human_event`) as text, as every column of a table.
+pub fn read_trace(path: &Path) -> Result<Table, DatasetError> {
+    read_dataset(path, "trace")
 }
 
 /// The folder analyses write into by default: `analysis/` in the dataset's folder, never among

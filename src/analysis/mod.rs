@@ -5,6 +5,7 @@
 //! - [`compare`] tests a metric between groups of runs (`mbmf stats`).
 //! - [`curves`] computes mean curves with standard errors from the series table (`mbmf plot`).
 //! - [`min_budget`] finds the smallest sufficient interaction budget (`mbmf min-budget`).
+//! - [`stay`] summarises and tests the two-step task's stay probabilities (`mbmf stay`).
 //! - [`pareto`] and [`stats`] hold the algorithms they use; the verbs that print
 //!   them are the command line's.
 
@@ -15,6 +16,7 @@ pub mod front;
 pub mod min_budget;
 pub mod pareto;
 pub mod stats;
+pub mod stay;
 
 use dataset::DatasetError;
 

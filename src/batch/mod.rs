@@ -7,6 +7,7 @@
 mod settled;
 mod step;
 mod storage;
+pub mod trace;
 
 pub use settled::Settled;
 use storage::{Rest, Tables};
@@ -109,6 +110,8 @@ pub struct Cursor {
     pub window_decisions: u32,
     /// Checkpoint rows written.
     pub checkpoints_written: u32,
+    /// Pairs in the MF eligibility trace (`lambda_mf` > 0 only).
+    pub eligible: u32,
 }
 
 impl Cursor {
@@ -143,6 +146,11 @@ pub fn checkpoint_count(params: &Params) -> usize {
     (params.steps as usize).div_ceil(params.checkpoint as usize)
 }
 
+/// Number of trace rows of a run when traced: one per experiment step (SPEC 14).
+pub fn trace_rows(params: &Params) -> usize {
+    params.steps as usize
+}
+
 /// R runs of one environment, with all their state in flat `[run, ...]` arrays.
 ///
 /// `Clone` copies every run's state, so benchmarks can bring a batch to a state once and time
@@ -162,6 +170,7 @@ pub struct Batch {
     stats: Vec<RunStats>,
     series: Vec<Checkpoint>,
     series_start: Vec<usize>,
+    trace: trace::TraceColumns,
 }
 
 impl Batch {
@@ -266,6 +275,7 @@ impl Batch {
             stats: vec![RunStats::default(); runs],
             series: vec![Checkpoint::default(); *series_start.last().unwrap()],
             series_start,
+            trace: trace::TraceColumns::default(),
             configs,
             plans: Arc::new(plans),
             run_plan,
@@ -287,6 +297,28 @@ impl Batch {
             let world = run.plan.map_or(&*spec, |p| &*p.worlds[0]);
             run.start(params, world.n_actions, world.dynamics.as_ref());
         });
+    }
+
+    /// Makes every run record the per-step trace (SPEC 14): one row per experiment step,
+    /// preallocated here. Call before the first step; a batch not traced holds no row.
+    pub fn record_trace(&mut self) {
+        assert!(
+            self.cursors.iter().all(|c| c.t == 0),
+            "the trace is asked for before the first step"
+        );
+        let rows = self.configs.iter().map(|c| trace_rows(&c.params)).sum();
+        self.trace = trace::TraceColumns::new(rows);
+    }
+
+    /// Whether the runs record the per-step trace.
+    pub fn is_traced(&self) -> bool {
+        !self.trace.is_empty()
+    }
+
+    /// The trace rows of every run, run after run ([`trace_rows`] each; empty when the batch
+    /// is not traced).
+    pub fn trace(&self) -> &trace::TraceColumns {
+        &self.trace
     }
 
     /// The canonical text of run `r`'s schedule ("" without changes, SPEC 10).
@@ -313,6 +345,7 @@ impl Batch {
             ("stats", size_of_val(self.stats.as_slice())),
             ("series", size_of_val(self.series.as_slice())),
             ("series_start", size_of_val(self.series_start.as_slice())),
+            ("trace", self.trace.bytes()),
             ("configs", size_of_val(self.configs.as_slice())),
             ("run_plan", size_of_val(self.run_plan.as_slice())),
         ]);
@@ -395,6 +428,11 @@ impl Batch {
         storage::row(&self.tables.task_state, self.len(), r)
     }
 
+    /// Run `r`'s tally of the experiment ([`crate::env::Tally`]; empty for a task without).
+    pub fn tally(&self, r: usize) -> &[f64] {
+        storage::row(&self.tables.tally, self.len(), r)
+    }
+
     /// Number of states the MB expert of run `r` knows: the start of at least one learned
     /// transition, so the states its value iteration sweeps (SPEC 3.2).
     pub fn known_states(&self, r: usize) -> usize {
@@ -457,6 +495,12 @@ impl Batch {
         let mut vi_terms = self.vi_terms.iter_mut();
         let obs: &Observable = &self.obs;
         let mut series_rest: &mut [Checkpoint] = &mut self.series;
+        let traced = !self.trace.is_empty();
+        let lens = self
+            .configs
+            .iter()
+            .map(|c| if traced { trace_rows(&c.params) } else { 0 });
+        let mut traces = self.trace.split(lens).into_iter();
         let plans: &[Plan] = &self.plans;
         let mut views = Vec::with_capacity(self.configs.len());
         for (((config, rng), cursor), (stats, r)) in self
@@ -477,6 +521,7 @@ impl Batch {
                 cursor,
                 stats,
                 series,
+                trace: traces.next().expect("one per run"),
                 plan: plans.get(usize::from(self.run_plan[r])),
             });
             views.push((&config.params, view));

@@ -13,9 +13,11 @@
 use std::time::Instant;
 
 use super::settled::{Expert, Fold};
+use super::trace::{self, Actor, HumanEvent};
 use super::{Checkpoint, RunView, Settled, initial_state, uniform};
 use crate::arbiter::{self, Arbiter, Draw, Inputs, Mixed, Own, Transition, Visit};
 use crate::env::{End, Spec};
+use crate::expert::mf::Eligibility;
 use crate::expert::{draw, ema, entropy_bits, max_of, mf, normalise_bits, softmax_biased};
 use crate::human::{self, Encounter};
 use crate::params::{
@@ -40,12 +42,15 @@ pub(super) fn run_until(spec: &Spec, params: &Params, run: &mut RunView<'_>, end
     let human = run.plan.is_some()
         || params.human.interaction != Interaction::None
         || params.reward_source != RewardSource::Environment;
+    // A traced run records a row per experiment step: its own compiled loop.
+    let trace = !run.trace.is_empty();
     let code = Loop {
         spec,
         params,
         run,
         end,
         human,
+        trace,
     };
     arbiter::dispatch(params.controller, code);
 }
@@ -57,14 +62,17 @@ struct Loop<'r, 'v> {
     run: &'r mut RunView<'v>,
     end: u64,
     human: bool,
+    trace: bool,
 }
 
 impl Visit for Loop<'_, '_> {
     type Output = ();
 
-    /// The loop for rule `A`, the human mode and the action count. The tidy tasks' 7 actions
-    /// get their own copy, whose rows have a length known at compile time (loops unrolled, no
-    /// remainder handling); other action counts share a generic one (`NA` 0: read from the spec).
+    /// The loop for rule `A`, the human mode, the action count, the MF's eligibility trace and
+    /// the per-step trace. The tidy tasks' 7 actions get their own copy, whose rows have a
+    /// length known at compile time (loops unrolled, no remainder handling); other action counts
+    /// share a generic one (`NA` 0: read from the spec), and so do runs with an eligibility trace
+    /// (`ELIGIBILITY`, `lambda_mf` > 0).
     /// A rule that gives a weight runs as [`Mixed`] under `combine = mix`; others ignore it.
     #[inline(always)]
     fn visit<A: Arbiter>(self) {
@@ -86,18 +94,42 @@ impl Loop<'_, '_> {
             run,
             end,
             human,
+            trace,
         } = self;
-        match (spec.n_actions == 7, human) {
-            (true, false) => run_loop::<A, false, 7>(spec, p, run, end),
-            (true, true) => run_loop::<A, true, 7>(spec, p, run, end),
-            (false, false) => run_loop::<A, false, 0>(spec, p, run, end),
-            (false, true) => run_loop::<A, true, 0>(spec, p, run, end),
+        let eligibility = A::RUNS_MF && !A::LEARNS_MF && p.uses_eligibility();
+        match (
+            spec.n_actions == 7 && !eligibility,
+            human,
+            eligibility,
+            trace,
+        ) {
+            (true, false, _, false) => run_loop::<A, false, 7, false, false>(spec, p, run, end),
+            (true, true, _, false) => run_loop::<A, true, 7, false, false>(spec, p, run, end),
+            (true, false, _, true) => run_loop::<A, false, 7, false, true>(spec, p, run, end),
+            (true, true, _, true) => run_loop::<A, true, 7, false, true>(spec, p, run, end),
+            (false, false, false, false) => {
+                run_loop::<A, false, 0, false, false>(spec, p, run, end)
+            }
+            (false, true, false, false) => run_loop::<A, true, 0, false, false>(spec, p, run, end),
+            (false, false, false, true) => run_loop::<A, false, 0, false, true>(spec, p, run, end),
+            (false, true, false, true) => run_loop::<A, true, 0, false, true>(spec, p, run, end),
+            (false, false, true, false) => run_loop::<A, false, 0, true, false>(spec, p, run, end),
+            (false, true, true, false) => run_loop::<A, true, 0, true, false>(spec, p, run, end),
+            (false, false, true, true) => run_loop::<A, false, 0, true, true>(spec, p, run, end),
+            (false, true, true, true) => run_loop::<A, true, 0, true, true>(spec, p, run, end),
         }
     }
 }
 
-/// [`run_until`] for one arbitration rule and human mode.
-fn run_loop<A: Arbiter, const HUMAN: bool, const NA: usize>(
+/// [`run_until`] for one arbitration rule, human mode, action count, MF eligibility trace
+/// and per-step trace mode.
+fn run_loop<
+    A: Arbiter,
+    const HUMAN: bool,
+    const NA: usize,
+    const ELIGIBILITY: bool,
+    const TRACE: bool,
+>(
     spec: &Spec,
     params: &Params,
     run: &mut RunView<'_>,
@@ -108,7 +140,7 @@ fn run_loop<A: Arbiter, const HUMAN: bool, const NA: usize>(
     let babble_end = end.min(babbling);
     if run.cursor.t < babble_end {
         while run.cursor.t < babble_end {
-            one_step::<A, HUMAN, NA, true>(spec, params, run, 0);
+            one_step::<A, HUMAN, NA, ELIGIBILITY, true, false>(spec, params, run, 0);
         }
         if run.cursor.t == babbling {
             // End of babbling: back to the start; a pending reset step is dropped (SPEC 7).
@@ -118,6 +150,11 @@ fn run_loop<A: Arbiter, const HUMAN: bool, const NA: usize>(
             // The task's state is drawn afresh for the experiment (SPEC 13).
             if let Some(d) = &world.dynamics {
                 (d.start)(d, run.task_state, run.rng);
+            }
+            // The tally counts the experiment only; the trace ends with the episode (SPEC 3.1).
+            run.tally.fill(0.0);
+            if ELIGIBILITY {
+                eligibility(run).clear();
             }
         }
     }
@@ -136,7 +173,7 @@ fn run_loop<A: Arbiter, const HUMAN: bool, const NA: usize>(
     let mut row_at = next_row(t_exp);
     while run.cursor.t < end {
         t_exp += 1;
-        one_step::<A, HUMAN, NA, false>(spec, params, run, t_exp);
+        one_step::<A, HUMAN, NA, ELIGIBILITY, false, TRACE>(spec, params, run, t_exp);
         if t_exp == row_at {
             record_checkpoint(run, t_exp);
             row_at = next_row(t_exp);
@@ -158,9 +195,27 @@ fn world<'s>(spec: &'s Spec, run: &RunView<'s>) -> &'s Spec {
         .map_or(spec, |p| &*p.worlds[usize::from(run.cursor.world)])
 }
 
-/// One step (SPEC 3.4) at experiment step `t_exp` (0 while babbling).
+/// The run's MF eligibility trace (runs with `lambda_mf` > 0 only).
 #[inline(always)]
-fn one_step<A: Arbiter, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
+fn eligibility<'r>(run: &'r mut RunView<'_>) -> Eligibility<'r> {
+    Eligibility {
+        e: run.eligibility,
+        pairs: run.eligible,
+        len: &mut run.cursor.eligible,
+    }
+}
+
+/// One step (SPEC 3.4) at experiment step `t_exp` (0 while babbling), recording its trace row
+/// when `TRACE` (never while babbling).
+#[inline(always)]
+fn one_step<
+    A: Arbiter,
+    const HUMAN: bool,
+    const NA: usize,
+    const ELIGIBILITY: bool,
+    const BABBLING: bool,
+    const TRACE: bool,
+>(
     spec: &Spec,
     params: &Params,
     run: &mut RunView<'_>,
@@ -182,14 +237,39 @@ fn one_step<A: Arbiter, const HUMAN: bool, const NA: usize, const BABBLING: bool
         // this is one was decided by the previous arrival, even if the goal has since moved.
         run.cursor.pending_reset = false;
         run.cursor.state = initial_state(spec, run.rng);
+        if TRACE {
+            run.trace.record(
+                t_exp,
+                trace::Row {
+                    state: s as u32,
+                    action: trace::NO_ACTION,
+                    next_state: run.cursor.state,
+                    reward: 0.0,
+                    terminal: false,
+                    actor: Actor::Reset,
+                    p_mb: f64::NAN,
+                    event: HumanEvent::None,
+                },
+            );
+        }
+        if ELIGIBILITY {
+            eligibility(run).clear();
+        }
     } else {
-        act::<A, HUMAN, NA, BABBLING>(spec, params, run, s, t_exp);
+        act::<A, HUMAN, NA, ELIGIBILITY, BABBLING, TRACE>(spec, params, run, s, t_exp);
     }
 }
 
 /// Steps 2 to 8 of SPEC 3.4 in a non-goal state.
 #[inline(always)]
-fn act<A: Arbiter, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
+fn act<
+    A: Arbiter,
+    const HUMAN: bool,
+    const NA: usize,
+    const ELIGIBILITY: bool,
+    const BABBLING: bool,
+    const TRACE: bool,
+>(
     spec: &Spec,
     params: &Params,
     run: &mut RunView<'_>,
@@ -201,6 +281,12 @@ fn act<A: Arbiter, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
     let human = run.cursor.human;
     let human = &human;
     let human_active = HUMAN && !babbling && run.cursor.budget_left > 0;
+    // The trace tells the step's interaction from the counters it moved.
+    let counted = if TRACE && HUMAN {
+        Some(*run.stats)
+    } else {
+        None
+    };
 
     // 2. Takeover.
     let action = if human_active {
@@ -208,8 +294,8 @@ fn act<A: Arbiter, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
     } else {
         None
     };
-    let a = match action {
-        Some(a) => a,
+    let (a, actor, p_mb) = match action {
+        Some(a) => (a, Actor::Human, f64::NAN),
         None => decide::<A, HUMAN, NA, BABBLING>(spec, params, run, s),
     };
 
@@ -235,6 +321,10 @@ fn act<A: Arbiter, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
             && uniform(run.rng) >= p
         {
             arrival_reward = 0.0;
+        }
+        // A task that tallies its steps marks every outcome eventful (no other task pays).
+        if let Some(tally) = &spec.tally {
+            (tally.note)(run.tally, s, a, next, arrival_reward);
         }
     }
     // 11.2: a nuisance human undoes a relevant action before anything learns from it; the
@@ -296,6 +386,30 @@ fn act<A: Arbiter, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
         if !HUMAN && run.q_mf[sa].to_bits() != before.to_bits() {
             run.settled[s].q_changed(Expert::Mf);
         }
+    } else if A::RUNS_MF && ELIGIBILITY {
+        // SPEC 3.1 with lambda_mf > 0: the TD error of (s, a) goes to every traced pair.
+        let future = mf::future(run.q_mf, n_a, next, terminal);
+        let delta = learned + params.gamma_mf * future - run.q_mf[sa];
+        let decay = params.gamma_mf * params.lambda_mf;
+        let settled = &mut *run.settled;
+        let mut trace = Eligibility {
+            e: run.eligibility,
+            pairs: run.eligible,
+            len: &mut run.cursor.eligible,
+        };
+        trace.learn(
+            run.q_mf,
+            sa,
+            delta,
+            params.alpha_mf,
+            decay,
+            terminal,
+            |pair| {
+                if !HUMAN {
+                    settled[pair / n_a].q_changed(Expert::Mf);
+                }
+            },
+        );
     } else if A::RUNS_MF {
         // An `mf` run without a human keeps each Q row's maximum; other runs read the row.
         let future = match (mf_alone::<A>() && !HUMAN, terminal) {
@@ -327,6 +441,23 @@ fn act<A: Arbiter, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
             .learn(params.window_n as usize, s, a, next, learned, terminal);
     }
 
+    if TRACE {
+        run.trace.record(
+            t_exp,
+            trace::Row {
+                state: s as u32,
+                action: a as u16,
+                next_state: next as u32,
+                reward,
+                terminal,
+                actor,
+                p_mb,
+                event: counted.map_or(HumanEvent::None, |before| {
+                    HumanEvent::between(&before, run.stats)
+                }),
+            },
+        );
+    }
     if !babbling {
         run.stats.total_reward += reward;
         if reward != 0.0 {
@@ -367,7 +498,8 @@ fn encounter<'r>(
 }
 
 /// Steps 3 to 5 of SPEC 3.4: the MC chooses, experts infer and compute their softmax, and the
-/// action is drawn from the chosen expert's distribution.
+/// action is drawn from the chosen expert's distribution. Returns the action, who chose it
+/// (SPEC 14's `actor`) and the decision's P(MB).
 ///
 /// What a decision computes from rows that have not changed since the last decision in the
 /// state is taken from then, bit for bit the same: the entropies of the averaged distributions
@@ -381,7 +513,7 @@ fn decide<A: Arbiter, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
     params: &Params,
     run: &mut RunView<'_>,
     s: usize,
-) -> usize {
+) -> (usize, Actor, f64) {
     let babbling = BABBLING;
     let n_a = actions::<NA>(spec);
     let row = s * n_a..(s + 1) * n_a;
@@ -552,7 +684,15 @@ fn decide<A: Arbiter, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
         run.cursor.window_p_mb += choice.p_mb;
         run.cursor.window_decisions += 1;
     }
-    a
+    let actor = match A::DRAW {
+        Draw::Expert if choice.use_mb => Actor::Mb,
+        Draw::Expert => Actor::Mf,
+        Draw::Mix => Actor::Mix,
+        // Per action (vpi): a mixture when MB valued at least one action.
+        Draw::PerAction if choice.use_mb => Actor::Mix,
+        Draw::PerAction => Actor::Mf,
+    };
+    (a, actor, choice.p_mb)
 }
 
 /// Whether rule `A` runs the MF expert alone: such a run keeps each state's MF softmax and Q row

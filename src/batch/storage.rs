@@ -8,6 +8,7 @@
 
 use rand_xoshiro::Xoshiro256PlusPlus;
 
+use super::trace::TraceRows;
 use super::{Checkpoint, Cursor, RunStats, Settled};
 use crate::env::Spec;
 use crate::expert::mb::Model;
@@ -40,6 +41,10 @@ pub struct Sizes {
     pub arbiter_tables: usize,
     /// Values of per-run task state ([`crate::env::Dynamics::len`]; 0 for a task without).
     pub task_state: usize,
+    /// Pairs of the MF eligibility trace: the task's when a run has `lambda_mf` > 0, else 0.
+    pub eligibility_pairs: usize,
+    /// Values of the task's per-run tally ([`crate::env::Tally::len`]; 0 for a task without).
+    pub tally: usize,
 }
 
 impl Sizes {
@@ -73,6 +78,12 @@ impl Sizes {
             arbiter_scalars: max(&|p| p.controller.run_scalars(p)),
             arbiter_tables: max(&|p| p.controller.pair_tables(p)),
             task_state: spec.dynamics.as_ref().map_or(0, |d| d.len),
+            eligibility_pairs: if params.clone().any(Params::uses_eligibility) {
+                n_s * spec.n_actions
+            } else {
+                0
+            },
+            tally: spec.tally.as_ref().map_or(0, |t| t.len),
         }
     }
 
@@ -155,6 +166,7 @@ macro_rules! tables {
                     cursor: rest.cursor,
                     stats: rest.stats,
                     series: rest.series,
+                    trace: rest.trace,
                     plan: rest.plan,
                 }
             }
@@ -173,6 +185,9 @@ macro_rules! tables {
             pub stats: &'a mut RunStats,
             /// The run's checkpoint rows.
             pub series: &'a mut [Checkpoint],
+            /// The run's trace rows, one per experiment step (none when the batch is not
+            /// traced).
+            pub trace: TraceRows<'a>,
             /// The run's schedule of changes, compiled; `None` for a run without changes in the
             /// batch's own environment.
             pub plan: Option<&'a Plan>,
@@ -213,6 +228,7 @@ pub(super) struct Rest<'a> {
     pub cursor: &'a mut Cursor,
     pub stats: &'a mut RunStats,
     pub series: &'a mut [Checkpoint],
+    pub trace: TraceRows<'a>,
     pub plan: Option<&'a Plan>,
 }
 
@@ -256,6 +272,13 @@ tables! {
         scratch: f64 [2 * z.actions] = 0.0;
         /// The task's per-run state ([`crate::env::Dynamics`]; empty for a task without).
         task_state: f64 [z.task_state] = 0.0;
+        /// MF eligibility trace e(s, a), `[state, action]` (SPEC 3.1; empty unless a run of the
+        /// batch has `lambda_mf` > 0).
+        eligibility: f64 [z.eligibility_pairs] = 0.0;
+        /// The pairs with e > 0, the first `Cursor::eligible` of them ([`crate::expert::mf::Eligibility`]).
+        eligible: u32 [z.eligibility_pairs] = 0;
+        /// The task's tally of the experiment ([`crate::env::Tally`]; empty for a task without).
+        tally: f64 [z.tally] = 0.0;
     }
     model {
         ring: u16 [z.mb_pairs() * z.window_cap];

@@ -1,4 +1,4 @@
-//! The analysis verbs: `mbmf pareto`, `mbmf stats`, `mbmf min-budget`. Each reads a dataset,
+//! The analysis verbs: `mbmf pareto`, `mbmf stats`, `mbmf min-budget`, `mbmf stay`. Each reads a dataset,
 //! runs one analysis of this module's siblings, prints a table and writes its results beside
 //! the data (Parquet, and for `pareto` a figure), atomically.
 
@@ -14,6 +14,7 @@ use crate::analysis::dataset::{self, Filter, Table, Value};
 use crate::analysis::front::{self, Front};
 use crate::analysis::min_budget::{self, DEFAULT_ALPHA, Level, MinBudget};
 use crate::analysis::pareto::{Direction, Objective};
+use crate::analysis::stay;
 use crate::plot::{self, FrontChart, FrontPanel};
 
 /// The dataset an analysis reads, and the runs it keeps.
@@ -124,6 +125,29 @@ pub struct MinBudgetArgs {
     #[arg(long)]
     pub levels: bool,
     /// Print one JSON object on stdout instead of the table (file written, one row per group).
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// `mbmf stay`.
+#[derive(Debug, Clone, Args)]
+#[command(after_help = "Example:
+  mbmf run --task twostep --controller mf,mb,fixed --combine mix --runs 200 --steps 2000 --tau 0.2 --lambda-mf 1 --out out/twostep
+  mbmf stay out/twostep --by controller")]
+pub struct StayArgs {
+    /// The dataset (runs of the two-step task) and the runs kept.
+    #[command(flatten)]
+    pub data: Dataset,
+    /// Column whose values define the groups (e.g. controller, lambda_mf, w_mb).
+    #[arg(long, value_parser = super::args::column)]
+    pub by: String,
+    /// Folder for stay.svg and stay.png (default: analysis/ in the dataset's folder).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Write no figure.
+    #[arg(long)]
+    pub no_plot: bool,
+    /// Print one JSON object on stdout instead of the tables (the groups, the pairs, the files).
     #[arg(long)]
     pub json: bool,
 }
@@ -676,6 +700,168 @@ fn print_comparison(c: &Comparison) {
             "within groups these parameters also vary: {}; add --where COLUMN=VALUE to compare \
              like with like",
             c.mixed.join(", ")
+        );
+    }
+}
+
+/// Runs `mbmf stay`: the stay table per group, the tests between groups and the classic figure.
+pub fn stay(args: &StayArgs) -> Result<(), Failure> {
+    let (folder, table) = if args.no_plot {
+        (PathBuf::new(), load(&args.data)?)
+    } else {
+        load_for_output(&args.data, args.out.as_deref())?
+    };
+    let result = stay::stay(&table, &args.by).map_err(analysis_failure)?;
+    let mut files = Vec::new();
+    if !args.no_plot {
+        files = plot::bar_panels(&stay_chart(&result), &folder.join("stay"))
+            .map_err(|e| runtime(anyhow!(e)))?;
+    }
+    if args.json {
+        outln!("{}", stay_json(&result, &files));
+    } else {
+        print_stay(&result);
+        for f in &files {
+            outln!("wrote {}", f.display());
+        }
+    }
+    Ok(())
+}
+
+/// The classic two-step figure: per group a panel, the stay probability after a rewarded and
+/// after an unrewarded trial, common and rare transitions side by side, with standard errors.
+fn stay_chart(s: &stay::Stay) -> plot::BarPanels {
+    let panels = s
+        .groups
+        .iter()
+        .map(|g| {
+            let bar = |column: usize, label: &str, group: &str| plot::Bar {
+                label: label.to_owned(),
+                // A kind no trial of the group had draws no bar (0).
+                value: Some(g.columns[column].mean)
+                    .filter(|m| m.is_finite())
+                    .map_or(0.0, |m| m.clamp(0.0, 1.0)),
+                error: Some(g.columns[column].sem).filter(|e| e.is_finite()),
+                group: group.to_owned(),
+            };
+            plot::BarChart {
+                title: format!("{}={} ({} runs)", s.by, g.value, g.runs),
+                y_label: "stay probability".to_owned(),
+                bars: vec![
+                    bar(0, "common", "rewarded"),
+                    bar(1, "rare", "rewarded"),
+                    bar(2, "common", "unrewarded"),
+                    bar(3, "rare", "unrewarded"),
+                ],
+                annotations: vec![],
+            }
+        })
+        .collect();
+    plot::BarPanels {
+        title: "Two-step task: stay probability by the previous trial's reward and transition"
+            .to_owned(),
+        panels,
+    }
+}
+
+/// The `--json` report of `mbmf stay`.
+fn stay_json(s: &stay::Stay, files: &[PathBuf]) -> serde_json::Value {
+    let groups: Vec<serde_json::Value> = s
+        .groups
+        .iter()
+        .map(|g| {
+            let mut columns = serde_json::Map::new();
+            for (name, c) in stay::COLUMNS.iter().zip(&g.columns) {
+                columns.insert(
+                    (*name).to_owned(),
+                    serde_json::json!({"n": c.n, "mean": c.mean, "ci95": c.ci95, "sem": c.sem}),
+                );
+            }
+            serde_json::json!({"value": g.value.to_string(), "runs": g.runs, "columns": columns})
+        })
+        .collect();
+    let pairs: Vec<serde_json::Value> = s
+        .pairs
+        .iter()
+        .map(|p| {
+            serde_json::json!({
+                "column": stay::COLUMNS[p.column],
+                "a": s.groups[p.first].value.to_string(),
+                "b": s.groups[p.second].value.to_string(),
+                "u": p.test.u,
+                "p": p.test.p_value,
+                "p_holm": p.p_holm,
+                "effect": p.test.effect_size,
+                "method": method_name(p.test.method),
+            })
+        })
+        .collect();
+    let files: Vec<String> = files.iter().map(|f| f.display().to_string()).collect();
+    serde_json::json!({
+        "verb": "stay",
+        "source": s.source,
+        "by": s.by,
+        "groups": groups,
+        "pairs": pairs,
+        "files": files,
+        "also_varying": s.mixed,
+    })
+}
+
+fn print_stay(s: &stay::Stay) {
+    outln!(
+        "{}: stay probabilities by {} (mean over runs ± 95% CI; SPEC 13)",
+        s.source,
+        s.by
+    );
+    let mut headers = vec![s.by.clone(), "runs".to_owned()];
+    headers.extend(["rc", "rr", "uc", "ur", "reward effect", "interaction"].map(String::from));
+    let rows: Vec<Vec<String>> = s
+        .groups
+        .iter()
+        .map(|g| {
+            let mut row = vec![g.value.to_string(), g.runs.to_string()];
+            row.extend(g.columns.iter().map(|c| mean_ci(c.mean, c.ci95)));
+            row
+        })
+        .collect();
+    out!("{}", render(&headers, &rows, 1));
+    outln!(
+        "rc, rr, uc, ur: the first-stage action repeats the previous trial's after a rewarded (r) \
+         or unrewarded (u) trial whose transition was common (c) or rare (r); reward effect = \
+         (rc + rr - uc - ur) / 2 (model-free), interaction = (rc - rr - uc + ur) / 2 \
+         (model-based)"
+    );
+    if !s.pairs.is_empty() {
+        outln!();
+        let headers = titles(&["column", "a", "b", "U", "p", "p_holm", "", "effect"]);
+        let rows: Vec<Vec<String>> = s
+            .pairs
+            .iter()
+            .map(|p| {
+                vec![
+                    stay::COLUMNS[p.column].to_owned(),
+                    s.groups[p.first].value.to_string(),
+                    s.groups[p.second].value.to_string(),
+                    num(p.test.u),
+                    pval(p.test.p_value),
+                    pval(p.p_holm),
+                    crate::analysis::stats::significance_stars(p.p_holm).to_owned(),
+                    format!("{:+.3}", p.test.effect_size),
+                ]
+            })
+            .collect();
+        out!("{}", render_aligned(&headers, &rows, |i| i < 3 || i == 6));
+        outln!(
+            "two-sided Wilcoxon-Mann-Whitney tests per column, Holm-corrected over the pairs of \
+             that column; effect = P(a > b) - P(a < b)"
+        );
+    }
+    if !s.mixed.is_empty() {
+        outln!(
+            "within groups these parameters also vary: {}; add --where COLUMN=VALUE to compare \
+             like with like",
+            s.mixed.join(", ")
         );
     }
 }

@@ -260,6 +260,17 @@ pub fn explain(error: ConfigError) -> anyhow::Error {
             "invalid value '{value}' for '{}': expected {accepted}",
             cli_flag(name)
         ),
+        ConfigError::Incompatible {
+            name,
+            value,
+            with,
+            with_value,
+            why,
+        } => anyhow!(
+            "{} {value} cannot be used with {} {with_value}: {why}",
+            cli_flag(name),
+            cli_flag(with)
+        ),
         other => other.into(),
     }
 }

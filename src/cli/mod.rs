@@ -142,6 +142,8 @@ pub enum Command {
     Stats(analysis::StatsArgs),
     /// Smallest interaction budget reaching the best accumulation rate, per controller.
     MinBudget(analysis::MinBudgetArgs),
+    /// Two-step task: stay probabilities and reward / interaction effects per group, with tests.
+    Stay(analysis::StayArgs),
     /// Mean curves per group (with a standard-error band) from a dataset's series, changes marked.
     Plot(plot::PlotArgs),
     /// Run the paper's experiments and write its figures and a claim-by-claim report.
@@ -214,6 +216,7 @@ pub fn execute(cli: &Cli) -> Result<(), Failure> {
         Command::Compact(args) => sweep::compact(args),
         Command::Pareto(args) => analysis::pareto(args),
         Command::Stats(args) => analysis::stats(args),
+        Command::Stay(args) => analysis::stay(args),
         Command::MinBudget(args) => analysis::min_budget(args),
         Command::Plot(args) => plot::plot(args),
         Command::Reproduce(args) => reproduce::command(args),

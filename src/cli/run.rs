@@ -71,6 +71,10 @@ pub struct RunArgs {
     /// Example: --change 1601:goal=34 --change 1601:world=json:PATH
     #[arg(long = "change", value_name = "STEP:KEY=VALUE")]
     pub change: Vec<String>,
+    /// Also write trace.parquet: one row per experiment step of every run (state, action,
+    /// reward, who chose, P(MB), the human's interaction; about 30 bytes per row in memory).
+    #[arg(long)]
+    pub trace: bool,
 }
 
 /// The validated parameters of each controller's runs, in `--controller` order.
@@ -118,6 +122,7 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
         batch_size: args.batch_size,
         set: args.params.given.iter().map(|(p, _)| p.name).collect(),
         command: super::command_line(),
+        trace: args.trace,
         ..run::Job::new(&args.task, Arc::new(spec), params, &args.out)
     };
     let mut checked = run::Run::new(job).map_err(failure)?;
@@ -151,14 +156,18 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
     let done = done.map_err(|e| interrupted(e, &args.out))?;
     let [runs_path, series_path] = &done.files;
     if args.json {
+        let mut files = serde_json::json!({
+            "runs": runs_path.display().to_string(),
+            "series": series_path.display().to_string(),
+        });
+        if let Some(trace) = &done.trace {
+            files["trace"] = trace.display().to_string().into();
+        }
         let report = serde_json::json!({
             "verb": "run",
             "task": args.task,
             "out": args.out.display().to_string(),
-            "files": {
-                "runs": runs_path.display().to_string(),
-                "series": series_path.display().to_string(),
-            },
+            "files": files,
             "runs": done.runs,
             "batch_size": batch_size,
             "seconds": done.seconds,
@@ -170,11 +179,19 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
             "{}",
             table(&done.rows, &args.task, done.runs as usize, done.seconds)
         );
-        outln!(
-            "wrote {} and {}",
-            runs_path.display(),
-            series_path.display()
-        );
+        match &done.trace {
+            Some(trace) => outln!(
+                "wrote {}, {} and {}",
+                runs_path.display(),
+                series_path.display(),
+                trace.display()
+            ),
+            None => outln!(
+                "wrote {} and {}",
+                runs_path.display(),
+                series_path.display()
+            ),
+        }
     }
     Ok(())
 }

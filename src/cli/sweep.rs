@@ -61,6 +61,10 @@ pub struct SweepArgs {
     /// counts, parts written, timing); progress and warnings stay on stderr.
     #[arg(long)]
     pub json: bool,
+    /// Also write trace/ parts: one row per experiment step of every run (as the sweep file's
+    /// `trace = true`; a sweep is traced from its start, and --resume keeps tracing it).
+    #[arg(long)]
+    pub trace: bool,
 }
 
 impl SweepArgs {
@@ -91,7 +95,8 @@ pub fn command(args: &SweepArgs) -> Result<(), Failure> {
     if !args.dry_run {
         super::args::check_out_dir(&args.out_dir(), "--out")?;
     }
-    let sweep = Sweep::load(&args.file).map_err(usage)?;
+    let mut sweep = Sweep::load(&args.file).map_err(usage)?;
+    sweep.trace |= args.trace;
     for warning in &sweep.warnings {
         eprintln!("warning: {warning}");
     }
@@ -131,14 +136,19 @@ pub fn command(args: &SweepArgs) -> Result<(), Failure> {
         };
         let estimate = format!(
             "estimated time: {time} with {} thread(s) (timed on {} sample run(s) in {:.1} s)\n\
-             estimated output: about {} ({} runs rows, {}{} series rows)",
+             estimated output: about {} ({} runs rows, {}{} series rows{})",
             e.threads,
             e.samples,
             e.calibration_seconds,
             sizing::human_bytes(size.output_bytes()),
             size.runs,
             if size.exact { "" } else { "about " },
-            size.series_rows
+            size.series_rows,
+            if size.trace_rows > 0 {
+                format!(", {} trace rows", size.trace_rows)
+            } else {
+                String::new()
+            }
         );
         if args.dry_run {
             outln!("{}", describe_plan(&sweep, shard));

@@ -120,6 +120,28 @@ impl PartialEq for Dynamics {
     }
 }
 
+/// A task's tally of the experiment, what its metric columns are computed from
+/// ([`registry::Metric`], e.g. twostep's stay probabilities, SPEC 13): `len` values per run
+/// (a flat array of the batch, zero-length for a task without), zero when the run starts and
+/// again when the experiment starts after babbling, and updated by `note` at every step the
+/// robot acts (after the outcome and its reward draw, before the human's draws), with the
+/// state, the action, the next state and the environment's reward of the arrival. It draws
+/// nothing. A task with a tally has every outcome eventful ([`Landing`]), so that the step of a
+/// task without one never tests for it.
+#[derive(Debug, Clone)]
+pub struct Tally {
+    /// Values per run.
+    pub len: usize,
+    /// Counts one step: `(tally, s, a, next, reward)`.
+    pub note: fn(&mut [f64], usize, usize, usize, f64),
+}
+
+impl PartialEq for Tally {
+    fn eq(&self, other: &Tally) -> bool {
+        self.len == other.len && std::ptr::fn_addr_eq(self.note, other.note)
+    }
+}
+
 /// What an arrival does to the episode.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum End {
@@ -170,14 +192,15 @@ pub struct Landing {
     pub eventful: bool,
 }
 
-/// The landing of each outcome, from its next state and its arrival.
-fn landings(outcome_state: &[StateId], arrivals: &[Arrival]) -> Vec<Landing> {
+/// The landing of each outcome, from its next state and its arrival (every one eventful when
+/// the task `tallies` its steps).
+fn landings(outcome_state: &[StateId], arrivals: &[Arrival], tallies: bool) -> Vec<Landing> {
     outcome_state
         .iter()
         .zip(arrivals)
         .map(|(&state, &a)| Landing {
             state,
-            eventful: a != Arrival::NOTHING,
+            eventful: tallies || a != Arrival::NOTHING,
         })
         .collect()
 }
@@ -219,6 +242,8 @@ pub struct Spec {
     pub human: Option<HumanTables>,
     /// Per-run task state and its hooks; `None` for a task without (no array, no draw).
     pub dynamics: Option<Dynamics>,
+    /// The task's tally of the experiment; `None` for a task without (no array, no call).
+    pub tally: Option<Tally>,
 }
 
 impl Spec {
@@ -286,6 +311,13 @@ impl Spec {
         spec
     }
 
+    /// This world with the tally `tally` (every outcome eventful, so that the step counts it).
+    pub fn with_tally(mut self, tally: Tally) -> Spec {
+        self.tally = Some(tally);
+        self.landing = landings(&self.outcome_state, &self.arrival, true);
+        self
+    }
+
     /// This world with the arrivals `arrivals` (one per outcome) and no single goal: what a task
     /// whose outcomes carry their own rewards builds.
     pub fn with_arrivals(mut self, arrivals: Vec<Arrival>) -> Spec {
@@ -294,7 +326,7 @@ impl Spec {
             self.outcome_state.len(),
             "one arrival per outcome"
         );
-        self.landing = landings(&self.outcome_state, &arrivals);
+        self.landing = landings(&self.outcome_state, &arrivals, self.tally.is_some());
         self.max_abs_reward = largest_reward(&arrivals);
         self.arrival = arrivals;
         self.goal = None;
@@ -346,7 +378,7 @@ impl Spec {
             outcome_start.push(outcome_state.len() as u32);
         }
         let arrival = goal_arrivals(&outcome_state, goal);
-        let landing = landings(&outcome_state, &arrival);
+        let landing = landings(&outcome_state, &arrival, false);
         let max_abs_reward = largest_reward(&arrival);
         Spec {
             name,
@@ -364,6 +396,7 @@ impl Spec {
             state_names,
             human,
             dynamics: None,
+            tally: None,
         }
     }
 }

@@ -38,8 +38,33 @@ pub struct Task {
     /// The world a run starts in when its task parameters are not all defaults: `None` where
     /// they change nothing, an error message where they cannot apply.
     pub configure: fn(&Params) -> Result<Option<Spec>, String>,
-    /// The metric columns the task reports besides the common ones (null for other tasks).
-    pub metrics: &'static [&'static str],
+    /// The metric columns the task reports besides the common ones (null for other tasks),
+    /// computed from its run's tally ([`crate::env::Tally`]).
+    pub metrics: &'static [Metric],
+}
+
+/// A metric column of a task (SPEC 13's stay probabilities): a runs-table column, null for the
+/// runs of other tasks, whose value the task computes from a run's tally at the end.
+#[derive(Debug)]
+pub struct Metric {
+    /// The column's name.
+    pub name: &'static str,
+    /// What it means (the column's description and the schema page's).
+    pub doc: &'static str,
+    /// Its unit ("" for none).
+    pub unit: &'static str,
+    /// Its value for a run with this tally; `None` (null) where undefined.
+    pub value: fn(&[f64]) -> Option<f64>,
+}
+
+/// Every task's metric columns, in task order then the task's order (the order of the columns).
+pub fn metrics() -> impl Iterator<Item = &'static Metric> {
+    crate::env::TASKS.iter().flat_map(|t| t.metrics.iter())
+}
+
+/// The metric column `name`, if a task reports it.
+pub fn metric(name: &str) -> Option<&'static Metric> {
+    metrics().find(|m| m.name == name)
 }
 
 /// What a task is unless it says otherwise: the paper's 10,000 steps after 1,000 of babbling,
@@ -170,6 +195,16 @@ pub fn check_params(spec: &Spec, params: &Params) -> Result<(), crate::params::C
     use crate::params::ConfigError;
     params.validate()?;
     params.validate_for_reward(spec.max_abs_reward())?;
+    if params.lambda_mf > 0.0 && params.controller == crate::params::Controller::Vpi {
+        return Err(ConfigError::Incompatible {
+            name: "lambda_mf",
+            value: crate::params::show(params.lambda_mf),
+            with: "controller",
+            with_value: params.controller.name().to_string(),
+            why: "vpi's MF is a Kalman Q-learner without an eligibility trace (SPEC 12.4); \
+                  set lambda_mf to 0 or use another controller",
+        });
+    }
     let interaction = params.human.interaction;
     if interaction != Interaction::None
         && params.human.budget > 0

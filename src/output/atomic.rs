@@ -5,7 +5,9 @@
 //! old runs file, the new series file and the old series file under its hidden name:
 //! [`committed_file`] then names the old series file, so a reader that follows it sees the old
 //! pair, and otherwise the new pair, never a mix. (Single files written whole are
-//! [`crate::whole_file`]'s.)
+//! [`crate::whole_file`]'s.) A traced run commits a triple the same way ([`commit`]): its
+//! `trace.parquet` moves first, kept aside as `.trace-<old id>.parquet` likewise, and a trace
+//! belongs to the committed run only when it carries the runs file's id ([`committed_trace`]).
 
 use crate::whole_file::{remove_dead_leftovers, sync};
 use std::fs::File;
@@ -46,8 +48,9 @@ pub fn run_id(path: &Path) -> Option<String> {
         .and_then(|k| k.value.clone())
 }
 
-fn backup_name(id: &str) -> String {
-    format!(".series-{id}.parquet")
+/// The hidden name of `table`'s file kept aside during a commit, under the id of its run.
+fn backup_name(table: &str, id: &str) -> String {
+    format!(".{table}-{id}.parquet")
 }
 
 /// The file of `table` ("runs" or "series") of the last committed run in `dir`: the runs
@@ -55,7 +58,7 @@ fn backup_name(id: &str) -> String {
 /// left, when the visible one is newer).
 pub fn committed_file(dir: &Path, table: &str) -> PathBuf {
     let visible = dir.join(format!("{table}.parquet"));
-    if table != "series" {
+    if table == "runs" {
         return visible;
     }
     let Some(runs_id) = run_id(&dir.join("runs.parquet")) else {
@@ -64,34 +67,69 @@ pub fn committed_file(dir: &Path, table: &str) -> PathBuf {
     if run_id(&visible).as_deref() == Some(runs_id.as_str()) {
         return visible;
     }
-    let backup = dir.join(backup_name(&runs_id));
+    let backup = dir.join(backup_name(table, &runs_id));
     if backup.is_file() { backup } else { visible }
+}
+
+/// The trace file (SPEC 14) of the last committed run in `dir`, if that run was traced: the
+/// file named by [`committed_file`] when it carries the runs file's id. A trace left by an
+/// earlier run that a later untraced run replaced is not the committed run's.
+pub fn committed_trace(dir: &Path) -> Option<PathBuf> {
+    let runs_id = run_id(&dir.join("runs.parquet"))?;
+    let visible = dir.join("trace.parquet");
+    if run_id(&visible).as_deref() == Some(runs_id.as_str()) {
+        return Some(visible);
+    }
+    let backup = dir.join(backup_name("trace", &runs_id));
+    (run_id(&backup).as_deref() == Some(runs_id.as_str())).then_some(backup)
 }
 
 /// Moves the staged `series` and `runs` files to their targets as one commit (see the module
 /// documentation). On an error before the runs file moved, the previous pair is restored.
 pub fn commit_pair(series: (&Path, &Path), runs: (&Path, &Path)) -> std::io::Result<()> {
-    let (series_staged, series_target) = series;
+    commit(&[("series", series.0, series.1)], runs)
+}
+
+/// Moves the staged files of `tables` ((table name, staged, target), e.g. the trace, then the
+/// series) and last the `runs` file to their targets as one commit (see the module
+/// documentation). On an error before the runs file moved, the previous files are restored.
+pub fn commit(tables: &[(&str, &Path, &Path)], runs: (&Path, &Path)) -> std::io::Result<()> {
     let (runs_staged, runs_target) = runs;
     let dir = runs_target.parent().unwrap_or(Path::new("."));
-    // Keep the series file that belongs to the current runs file, under its id.
-    let backup = match (series_target.is_file(), run_id(runs_target)) {
-        (true, Some(old)) => {
-            let backup = dir.join(backup_name(&old));
-            let _ = std::fs::remove_file(&backup);
-            std::fs::hard_link(series_target, &backup)?;
-            Some(backup)
+    let old = run_id(runs_target);
+    // Keep each file that belongs to the current runs file, under its id.
+    let mut moved: Vec<(Option<PathBuf>, &Path)> = Vec::new();
+    let restore = |moved: &[(Option<PathBuf>, &Path)]| {
+        for (backup, target) in moved {
+            if let Some(b) = backup {
+                let _ = std::fs::rename(b, target);
+            }
         }
-        _ => None,
     };
-    std::fs::rename(series_staged, series_target)?;
-    if std::env::var_os(FAULT_ENV).is_some_and(|v| v == "after-first-rename") {
-        std::process::abort();
+    for (k, &(table, staged, target)) in tables.iter().enumerate() {
+        let backup = match (target.is_file(), &old) {
+            (true, Some(old)) => {
+                let backup = dir.join(backup_name(table, old));
+                let _ = std::fs::remove_file(&backup);
+                if let Err(e) = std::fs::hard_link(target, &backup) {
+                    restore(&moved);
+                    return Err(e);
+                }
+                Some(backup)
+            }
+            _ => None,
+        };
+        if let Err(e) = std::fs::rename(staged, target) {
+            restore(&moved);
+            return Err(e);
+        }
+        moved.push((backup, target));
+        if k == 0 && std::env::var_os(FAULT_ENV).is_some_and(|v| v == "after-first-rename") {
+            std::process::abort();
+        }
     }
     if let Err(e) = std::fs::rename(runs_staged, runs_target) {
-        if let Some(b) = &backup {
-            let _ = std::fs::rename(b, series_target);
-        }
+        restore(&moved);
         return Err(e);
     }
     sync(dir);
@@ -99,7 +137,8 @@ pub fn commit_pair(series: (&Path, &Path), runs: (&Path, &Path)) -> std::io::Res
     if let Ok(entries) = std::fs::read_dir(dir) {
         for e in entries.flatten() {
             let name = e.file_name().to_string_lossy().into_owned();
-            if name.starts_with(".series-") && name.ends_with(".parquet") {
+            let aside = name.starts_with(".series-") || name.starts_with(".trace-");
+            if aside && name.ends_with(".parquet") {
                 let _ = std::fs::remove_file(e.path());
             }
         }

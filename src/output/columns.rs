@@ -52,12 +52,23 @@ const DOCS: &[(&str, &str, &str)] = &[
     ("cum_cost", "inference cost so far, both experts", COST),
     ("cum_cost_mf", "inference cost so far, MF", COST),
     ("cum_cost_mb", "inference cost so far, MB", COST),
+    ("state", "state at the start of the step (the environment's state index)", ""),
+    ("action", "action executed (the robot's or the human's); null on a reset step", ""),
+    ("next_state", "state after the step (after a nuisance, the state it left)", ""),
+    ("reward", "the task's reward of the step (what total_reward adds up; babbling excluded)", "reward"),
+    ("terminal", "the arrival ended an episode or trial (no future term for MF)", ""),
+    ("actor", "who chose the action: mf or mb (that expert's softmax), mix (a mixture: combine = mix, or a vpi decision with an action valued by MB), human (a takeover), reset (a reset step)", ""),
+    ("p_mb", "P(MB) of the step's decision; null without a decision (takeover, reset step)", "probability"),
+    ("human_event", "what the human did: none, congratulation, punishment, takeover, nuisance, reward (a reward given with another interaction in one step shows as that interaction)", ""),
 ];
 
 /// The description and unit of a column mbmf writes, if it is one.
 pub fn doc(name: &str) -> Option<(&'static str, &'static str)> {
     if let Some(p) = crate::params::param(name) {
         return Some((p.doc, p.unit));
+    }
+    if let Some(m) = crate::env::registry::metric(name) {
+        return Some((m.doc, m.unit));
     }
     DOCS.iter()
         .find(|(n, _, _)| *n == name)
@@ -87,6 +98,12 @@ fn type_name(data_type: &DataType) -> String {
         DataType::Float64 => "f64".to_string(),
         DataType::Boolean => "bool".to_string(),
         DataType::Utf8 | DataType::LargeUtf8 => "string".to_string(),
+        DataType::Int32 => "i32".to_string(),
+        DataType::Int16 => "i16".to_string(),
+        DataType::Dictionary(key, value) => {
+            format!("dictionary<{}, {}>", type_name(key), type_name(value))
+        }
+        DataType::Int8 => "i8".to_string(),
         other => other.to_string(),
     }
 }
@@ -166,6 +183,34 @@ pub fn schema_markdown(runs: &Schema, series: &Schema) -> String {
                 cell(description)
             );
         }
+    }
+    s
+}
+
+/// The column table of the `trace` table (SPEC 14) for the schema page, in file order.
+pub fn trace_markdown(trace: &Schema) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "\n**`trace` columns** (with `--trace`: one row per run per experiment step, SPEC 14):\n"
+    );
+    let _ = writeln!(s, "| column | type | unit | meaning |");
+    let _ = writeln!(s, "|---|---|---|---|");
+    for f in trace.fields() {
+        let (description, unit) = doc(f.name()).unwrap_or(("", ""));
+        let t = type_name(f.data_type());
+        let t = if f.is_nullable() {
+            format!("{t}, null")
+        } else {
+            t
+        };
+        let _ = writeln!(
+            s,
+            "| `{}` | {t} | {} | {} |",
+            f.name(),
+            cell(unit),
+            cell(description)
+        );
     }
     s
 }

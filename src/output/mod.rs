@@ -218,6 +218,19 @@ pub fn runs_batch(batch: &Batch) -> Result<RecordBatch, OutputError> {
         s.iter().map(|r| r.reward_after_change()),
     );
     cols.opt_int("recovery_steps", s.iter().map(|r| r.recovery_steps()));
+    // Every task's metric columns, null for runs of other tasks (SPEC 13).
+    let own = crate::env::registry::find(&task).map_or(&[][..], |t| t.metrics);
+    for m in crate::env::registry::metrics() {
+        let mine = own.iter().any(|o| o.name == m.name);
+        let values = (0..batch.len()).map(|r| {
+            if mine {
+                (m.value)(batch.tally(r))
+            } else {
+                None
+            }
+        });
+        cols.opt_f64(m.name, values);
+    }
     cols.int("vi_calls", s.iter().map(|r| r.vi_calls));
     cols.int("vi_sweeps", s.iter().map(|r| r.vi_sweeps));
     cols.int("vi_capped", s.iter().map(|r| r.vi_capped));
@@ -249,6 +262,81 @@ pub fn series_batch(batch: &Batch) -> Result<RecordBatch, OutputError> {
     cols.finish()
 }
 
+/// One row per run per experiment step of a traced batch (SPEC 14), runs in batch order, steps
+/// in order. Small integers and dictionary columns keep it compact: 4 bytes for states and
+/// steps, 2 for the action, 1-byte codes of a 5- and a 6-word dictionary for `actor` and
+/// `human_event`. An untraced batch gives a table of no rows.
+pub fn trace_batch(batch: &Batch) -> Result<RecordBatch, OutputError> {
+    use crate::batch::trace::{Actor, HumanEvent, NO_ACTION};
+    use arrow::array::{BooleanArray, DictionaryArray, Int8Array, Int16Array, Int32Array};
+    let t = batch.trace();
+    let runs = || {
+        batch.configs().iter().flat_map(move |c| {
+            let n = if t.is_empty() {
+                0
+            } else {
+                crate::batch::trace_rows(&c.params)
+            };
+            (1..=n).map(move |k| (c.run_index, k))
+        })
+    };
+    let int32 = |v: &[u32]| -> ArrayRef {
+        Arc::new(Int32Array::from_iter_values(
+            v.iter().map(|&x| i32::try_from(x).unwrap_or(i32::MAX)),
+        ))
+    };
+    let dictionary = |codes: Vec<i8>, names: Vec<&str>| -> Result<ArrayRef, OutputError> {
+        let keys = Int8Array::from(codes);
+        let values = Arc::new(StringArray::from(names));
+        Ok(Arc::new(DictionaryArray::try_new(keys, values)?))
+    };
+    let mut cols = Columns::default();
+    cols.int("run_index", runs().map(|(r, _)| r));
+    cols.push(
+        "step",
+        false,
+        Arc::new(Int32Array::from_iter_values(
+            runs().map(|(_, k)| i32::try_from(k).unwrap_or(i32::MAX)),
+        )),
+    );
+    cols.push("state", false, int32(&t.state));
+    cols.push(
+        "action",
+        true,
+        Arc::new(
+            t.action
+                .iter()
+                .map(|&a| (a != NO_ACTION).then_some(a as i16))
+                .collect::<Int16Array>(),
+        ),
+    );
+    cols.push("next_state", false, int32(&t.next_state));
+    cols.f64("reward", t.reward.iter().copied());
+    cols.push(
+        "terminal",
+        false,
+        Arc::new(BooleanArray::from(t.terminal.clone())),
+    );
+    cols.push(
+        "actor",
+        false,
+        dictionary(
+            t.actor.iter().map(|&a| a as i8).collect(),
+            Actor::ALL.iter().map(|a| a.name()).collect(),
+        )?,
+    );
+    cols.opt_f64("p_mb", t.p_mb.iter().map(|&p| (!p.is_nan()).then_some(p)));
+    cols.push(
+        "human_event",
+        false,
+        dictionary(
+            t.event.iter().map(|&e| e as i8).collect(),
+            HumanEvent::ALL.iter().map(|e| e.name()).collect(),
+        )?,
+    );
+    cols.finish()
+}
+
 /// A Parquet file being written under a temporary name, renamed into place by [`finish`].
 ///
 /// [`finish`]: ParquetSink::finish
@@ -273,6 +361,11 @@ impl ParquetSink {
             writer: None,
             metadata,
         }
+    }
+
+    /// The key-value metadata the file gets.
+    pub fn metadata(&self) -> &[(String, String)] {
+        &self.metadata
     }
 
     /// Appends a record batch (the first one fixes the schema).

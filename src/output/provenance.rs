@@ -9,6 +9,8 @@ use std::time::{SystemTime, UNIX_EPOCH};
 pub const RUNS_SCHEMA: &str = "runs/2";
 /// Schema version of the series table.
 pub const SERIES_SCHEMA: &str = "series/2";
+/// Version of the trace table's schema (SPEC 14).
+pub const TRACE_SCHEMA: &str = "trace/1";
 /// Schema version of `mbmf pareto`'s table.
 pub const PARETO_SCHEMA: &str = "pareto/1";
 /// Schema version of `mbmf min-budget`'s table.

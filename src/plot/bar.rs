@@ -136,6 +136,10 @@ impl<'a> BarFigure<'a> {
 
 impl Figure for BarFigure<'_> {
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> DrawResult<DB> {
+        // Texts are placed on `root` from the chart's backend coordinates, which are the
+        // whole figure's: within a panel, `root` starts elsewhere.
+        let (bx, by) = root.get_base_pixel();
+        let shift = |(x, y): (i32, i32)| (x - bx, y - by);
         let area = titled_area(root, &self.chart.title)?;
         let y_ticks = 8;
         let y_area = y_label_area_width(&area, &self.y, y_ticks)?;
@@ -208,16 +212,16 @@ impl Figure for BarFigure<'_> {
                     BLACK.stroke_width(1),
                 )))?;
             }
-            let (px, py) = chart.backend_coord(&((a + b) / 2.0, *height));
+            let (px, py) = shift(chart.backend_coord(&((a + b) / 2.0, *height)));
             root.draw(&Text::new(text.clone(), (px, py - 3), note_style.clone()))?;
         }
         // Labels under the plot: bar labels (if they fit), then group names.
-        let below = chart.backend_coord(&(self.x.lo, self.y.lo)).1 + 8;
+        let below = shift(chart.backend_coord(&(self.x.lo, self.y.lo))).1 + 8;
         let top_style = label_style.pos(Pos::new(HPos::Center, VPos::Top));
         let mut row_y = below;
         if labels_fit {
             for (bar, &c) in self.chart.bars.iter().zip(&self.centres) {
-                let (px, _) = chart.backend_coord(&(c, 0.0));
+                let (px, _) = shift(chart.backend_coord(&(c, 0.0)));
                 root.draw(&Text::new(
                     bar.label.clone(),
                     (px, row_y),
@@ -232,8 +236,8 @@ impl Figure for BarFigure<'_> {
                 .groups
                 .iter()
                 .map(|(_, start, end)| {
-                    let left = chart.backend_coord(&(*start, 0.0)).0;
-                    let right = chart.backend_coord(&(*end, 0.0)).0;
+                    let left = shift(chart.backend_coord(&(*start, 0.0))).0;
+                    let right = shift(chart.backend_coord(&(*end, 0.0))).0;
                     (left, right)
                 })
                 .collect();
@@ -267,6 +271,60 @@ impl Figure for BarFigure<'_> {
                 .map(|(label, colour)| (label, Swatch::Block(colour)))
                 .collect();
             draw_legend(&legend_area, &entries, 30)?;
+        }
+        Ok(())
+    }
+}
+
+/// Width of one panel of a [`BarPanels`] figure.
+const PANEL_WIDTH: u32 = 480;
+/// Height of one panel.
+const PANEL_HEIGHT: u32 = 420;
+/// Height of the band holding the figure's title.
+const TITLE_BAND: u32 = 40;
+
+/// Bar charts side by side, a panel each, in a grid of at most three columns.
+pub(super) struct PanelsFigure<'a> {
+    pub(super) chart: &'a BarPanels,
+    pub(super) panels: Vec<BarFigure<'a>>,
+    pub(super) columns: u32,
+    pub(super) rows: u32,
+}
+
+impl<'a> PanelsFigure<'a> {
+    pub(super) fn new(chart: &'a BarPanels, figure: &str) -> Result<Self, PlotError> {
+        if chart.panels.is_empty() {
+            return Err(empty(figure, "panel list"));
+        }
+        let panels = chart
+            .panels
+            .iter()
+            .map(|p| BarFigure::new(p, figure))
+            .collect::<Result<Vec<_>, _>>()?;
+        let n = panels.len() as u32;
+        let columns = n.min(3);
+        Ok(Self {
+            chart,
+            panels,
+            columns,
+            rows: n.div_ceil(columns),
+        })
+    }
+}
+
+impl Figure for PanelsFigure<'_> {
+    fn size(&self) -> (u32, u32) {
+        (
+            self.columns * PANEL_WIDTH,
+            self.rows * PANEL_HEIGHT + TITLE_BAND,
+        )
+    }
+
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> DrawResult<DB> {
+        let area = titled_area(root, &self.chart.title)?;
+        let cells = area.split_evenly((self.rows as usize, self.columns as usize));
+        for (panel, cell) in self.panels.iter().zip(&cells) {
+            panel.draw(cell)?;
         }
         Ok(())
     }

@@ -238,6 +238,16 @@ pub struct BarChart {
     pub annotations: Vec<(usize, usize, String)>,
 }
 
+/// Bar charts side by side, one panel per group (e.g. the two-step task's stay probabilities
+/// of each controller), each on its own axes.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BarPanels {
+    /// Title above the panels (may be empty).
+    pub title: String,
+    /// The panels, at least one, each a bar chart with its own title; laid out in a grid.
+    pub panels: Vec<BarChart>,
+}
+
 /// Points on two axes, with a highlighted subset (a Pareto front) and an optional marked point
 /// (its knee).
 #[derive(Debug, Clone, PartialEq)]
@@ -367,6 +377,15 @@ pub fn line_chart(chart: &LineChart, path_without_ext: &Path) -> Result<Vec<Path
 /// an annotation names a missing bar, or a file cannot be written.
 pub fn bar_chart(chart: &BarChart, path_without_ext: &Path) -> Result<Vec<PathBuf>, PlotError> {
     let figure = BarFigure::new(chart, &figure_name(path_without_ext))?;
+    write_figure(&figure, path_without_ext)
+}
+
+/// Writes `chart` to `path_without_ext` + `.svg` and `.png`; returns both paths.
+///
+/// # Errors
+/// [`PlotError`] if there are no panels, or as [`bar_chart`] for a panel.
+pub fn bar_panels(chart: &BarPanels, path_without_ext: &Path) -> Result<Vec<PathBuf>, PlotError> {
+    let figure = bar::PanelsFigure::new(chart, &figure_name(path_without_ext))?;
     write_figure(&figure, path_without_ext)
 }
 

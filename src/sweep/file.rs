@@ -24,7 +24,15 @@ use crate::sizing::{Shrink, Size};
 use super::shard::Shard;
 
 /// Top-level keys and sections of a sweep file.
-pub const TOP_LEVEL: &[&str] = &["seeds", "master_seed", "fixed", "grid", "zip", "profiles"];
+pub const TOP_LEVEL: &[&str] = &[
+    "seeds",
+    "master_seed",
+    "trace",
+    "fixed",
+    "grid",
+    "zip",
+    "profiles",
+];
 /// Keys of a range table.
 const RANGE_KEYS: &[&str] = &["from", "to", "steps", "by", "log"];
 /// More values than this on one axis is surely a mistake (and would not fit in memory).
@@ -120,6 +128,8 @@ pub struct Sweep {
     pub seeds: u32,
     /// Master seed: with the run index it fixes every run's random stream (default 1).
     pub master_seed: u64,
+    /// `trace = true`: write the per-step trace table (SPEC 14; default false).
+    pub trace: bool,
     /// `[fixed]`: one value for every configuration.
     pub fixed: Vec<(Key, Value)>,
     /// `[grid]` keys and `[[zip]]` groups, in file order.
@@ -1136,6 +1146,7 @@ impl Sweep {
         };
         let mut seeds = 1u32;
         let mut master_seed = 1u64;
+        let mut trace = false;
         for (k, v) in entries(root.get_ref()) {
             let name = keys::normalise(k.get_ref());
             let table = |p: &Parser<'_>| {
@@ -1163,6 +1174,22 @@ impl Sweep {
                                 ),
                             )
                         })?;
+                }
+                "trace" => {
+                    trace = match v.get_ref() {
+                        DeValue::Boolean(b) => *b,
+                        other => {
+                            return Err(p.src.err(
+                                &v.span(),
+                                "trace",
+                                format!(
+                                    "key 'trace': true (write the per-step trace table) or \
+                                     false, found {}",
+                                    type_name(other)
+                                ),
+                            ));
+                        }
+                    };
                 }
                 "fixed" => p.fixed(table(&p)?)?,
                 "grid" => p.grid(table(&p)?)?,
@@ -1233,6 +1260,7 @@ impl Sweep {
             text: text.to_string(),
             seeds,
             master_seed,
+            trace,
             fixed,
             axes,
             profiles,
@@ -1501,6 +1529,8 @@ impl Sweep {
                 Key::all()
                     .find(|k| because.contains(k.name()) && self.source(*k).is_some())
                     .unwrap_or(Key::Task)
+            } else if let ConfigError::Incompatible { name, .. } = &e {
+                Key::lookup(name).unwrap_or(Key::Task)
             } else if let ConfigError::InteractionUnsupported { .. } = &e {
                 Key::INTERACTION
             } else {
@@ -1604,6 +1634,7 @@ impl Sweep {
             size.add(
                 weight * u128::from(self.seeds),
                 &self.resolve(config).params,
+                self.trace,
             );
         }
         if reps.exact {

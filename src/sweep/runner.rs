@@ -165,11 +165,13 @@ pub fn metadata(sweep: &Sweep, shard: Shard, command: &str) -> Vec<(String, Stri
     output::metadata(command, sweep.master_seed, Some(&origin))
 }
 
-/// A sweep's dataset folder, written one part (a runs file and a series file) per batch.
+/// A sweep's dataset folder, written one part (a runs file and a series file, and a trace file
+/// when traced) per batch.
 struct Parts<'a> {
     sweep: &'a Sweep,
     dir: &'a Path,
     metadata: Vec<(String, String)>,
+    trace: bool,
 }
 
 impl pipeline::Writer for Parts<'_> {
@@ -182,7 +184,23 @@ impl pipeline::Writer for Parts<'_> {
         let name = store::part_name(first.unwrap_or(0), last.unwrap_or(0), sweep.runs());
         let seeds = u64::from(sweep.seeds);
         let [runs, series] = pipeline::tables(batch, seeds, &sweep.profile_names, profiles)?;
-        store::write_part(self.dir, &name, &runs, &series, &self.metadata)
+        let trace = if self.trace {
+            Some(output::trace_batch(batch)?)
+        } else {
+            None
+        };
+        store::write_part(
+            self.dir,
+            &name,
+            &runs,
+            &series,
+            trace.as_ref(),
+            &self.metadata,
+        )
+    }
+
+    fn traces(&self) -> bool {
+        self.trace
     }
 }
 
@@ -284,6 +302,23 @@ pub fn execute(
         .into());
     }
     store::remove_leftovers(&scan.leftovers)?;
+    // A sweep is traced from its start: asked by its file (or `--trace`), or found traced.
+    let trace_dir = out.join(store::TRACE_DIR);
+    let trace = sweep.trace || trace_dir.is_dir();
+    if trace && !trace_dir.is_dir() {
+        if scan.parts > 0 {
+            return Err(StoreError::UntracedParts {
+                dir: out.clone(),
+                parts: scan.parts,
+            }
+            .into());
+        }
+        std::fs::create_dir_all(&trace_dir).map_err(|cause| StoreError::Io {
+            action: "create",
+            path: trace_dir.clone(),
+            cause,
+        })?;
+    }
 
     let mut shard_runs = 0u64;
     let mut shard_done = 0u64;
@@ -297,7 +332,7 @@ pub fn execute(
         if missing > 0 {
             let resolved = sweep.resolve(config);
             steps_to_run += missing * pipeline::run_steps(&resolved.params);
-            let bytes = pipeline::bytes_per_run(&specs[resolved.task], &resolved.params);
+            let bytes = pipeline::bytes_per_run(&specs[resolved.task], &resolved.params, trace);
             if largest.is_none_or(|(b, _, _)| bytes > b) {
                 let run =
                     pipeline::run_config(resolved.params, sweep.master_seed, config, seeds, 0);
@@ -307,7 +342,7 @@ pub fn execute(
     }
     let batch_size = match largest {
         Some((_, task, run)) => {
-            pipeline::plan_batch_size(&specs[task], &[run], options.batch_size)?
+            pipeline::plan_batch_size(&specs[task], &[run], options.batch_size, trace)?
         }
         None => options.batch_size.max(1),
     };
@@ -329,6 +364,7 @@ pub fn execute(
             sweep,
             dir: out,
             metadata: metadata(sweep, shard, &options.command),
+            trace,
         },
     };
     let mut ran = 0u64;

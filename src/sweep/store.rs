@@ -5,13 +5,16 @@
 //! DIR/sweep.toml                        the sweep text (a resume with another text is refused)
 //! DIR/runs/part-FIRST-LAST.parquet      one row per run of one batch
 //! DIR/series/part-FIRST-LAST.parquet    one row per checkpoint of the same runs
+//! DIR/trace/part-FIRST-LAST.parquet     a traced sweep's: one row per step of the same runs
 //! DIR/.lock-I-of-N                      held while shard I/N writes; names the holder's pid
 //! ```
 //!
 //! Every file is written under a hidden temporary name, synced and renamed, so a final name
-//! always holds a complete file. A batch writes its series part first and its runs part last:
-//! the runs part is the commit. A series part without its runs part is a leftover of a killed
-//! process and is deleted by the next process of the same shard. `FIRST` and `LAST` are the
+//! always holds a complete file. A batch writes its trace part (traced sweeps only) and its
+//! series part first and its runs part last: the runs part is the commit. A series or trace
+//! part without its runs part is a leftover of a killed process and is deleted by the next
+//! process of the same shard. A sweep is traced when its `trace/` folder exists (created by
+//! the first traced process), and then every committed part has its trace part. `FIRST` and `LAST` are the
 //! batch's smallest and largest run index; the runs it holds are listed in its `run_index`
 //! column (a resumed batch need not be contiguous).
 
@@ -33,6 +36,8 @@ pub const SWEEP_FILE: &str = "sweep.toml";
 pub const RUNS_DIR: &str = "runs";
 /// Folder of the per-checkpoint tables.
 pub const SERIES_DIR: &str = "series";
+/// Folder of the per-step tables of a traced sweep (SPEC 14).
+pub const TRACE_DIR: &str = "trace";
 
 /// A dataset folder that cannot be used as asked.
 #[derive(Debug, thiserror::Error)]
@@ -122,6 +127,18 @@ pub enum StoreError {
     /// Writing a part failed.
     #[error(transparent)]
     Output(#[from] OutputError),
+    /// A trace asked of a dataset whose committed parts were written without one.
+    #[error(
+        "{dir} holds {parts} part(s) written without the trace: a sweep is traced from its start \
+         (every part has its trace part); resume it without --trace, or write the traced sweep \
+         into another --out"
+    )]
+    UntracedParts {
+        /// The dataset folder.
+        dir: PathBuf,
+        /// Committed parts found.
+        parts: usize,
+    },
 }
 
 impl StoreError {
@@ -133,6 +150,7 @@ impl StoreError {
             StoreError::DifferentSweep { .. }
                 | StoreError::NotADataset { .. }
                 | StoreError::AlreadyStarted { .. }
+                | StoreError::UntracedParts { .. }
         )
     }
 }
@@ -336,7 +354,7 @@ pub fn check_folder(dir: &Path, text: &str, file: &str) -> Result<(), StoreError
         let name = entry.file_name().to_string_lossy().into_owned();
         let harmless = name.starts_with(".lock-")
             || name.starts_with(".sweep.toml.tmp-")
-            || ((name == RUNS_DIR || name == SERIES_DIR)
+            || ((name == RUNS_DIR || name == SERIES_DIR || name == TRACE_DIR)
                 && fs::read_dir(entry.path())
                     .map(|mut d| d.next().is_none())
                     .unwrap_or(false));
@@ -469,10 +487,10 @@ pub struct Scan {
     pub strays: Vec<PathBuf>,
 }
 
-/// The files of `runs/` and `series/` (named `runs` and `series`, listed in `dir`) that are
-/// neither parts nor a writer's temporary files.
-fn strays(dir: &Path, runs: &[String], series: &[String]) -> Vec<PathBuf> {
-    [(RUNS_DIR, runs), (SERIES_DIR, series)]
+/// The files of `runs/`, `series/` and `trace/` (named `runs`, `series` and `trace`, listed in
+/// `dir`) that are neither parts nor a writer's temporary files.
+fn strays(dir: &Path, runs: &[String], series: &[String], trace: &[String]) -> Vec<PathBuf> {
+    [(RUNS_DIR, runs), (SERIES_DIR, series), (TRACE_DIR, trace)]
         .into_iter()
         .flat_map(|(sub, names)| {
             names
@@ -568,6 +586,13 @@ pub fn scan(dir: &Path, total: u64, owned: &dyn Fn(u64) -> bool) -> Result<Scan,
     } else {
         Vec::new()
     };
+    let trace_dir = dir.join(TRACE_DIR);
+    let traced = trace_dir.is_dir();
+    let trace_names = if traced {
+        list(&trace_dir)?
+    } else {
+        Vec::new()
+    };
     let version = env!("CARGO_PKG_VERSION");
     for (i, name) in runs_names.iter().enumerate() {
         let Some((first, committed)) = part_first(name) else {
@@ -626,14 +651,41 @@ pub fn scan(dir: &Path, total: u64, owned: &dyn Fn(u64) -> bool) -> Result<Scan,
             }
         }
         let series_path = series_dir.join(name);
-        let series_ok = File::open(&series_path)
-            .map_err(|e| e.to_string())
-            .and_then(|f| ParquetRecordBatchReaderBuilder::try_new(f).map_err(|e| e.to_string()));
-        if let Err(e) = series_ok {
+        let readable = |path: &Path| {
+            File::open(path)
+                .map_err(|e| e.to_string())
+                .and_then(|f| {
+                    ParquetRecordBatchReaderBuilder::try_new(f).map_err(|e| e.to_string())
+                })
+                .map(|_| ())
+        };
+        if let Err(e) = readable(&series_path) {
             return Err(StoreError::BadPart {
                 path: series_path,
                 reason: format!("cannot be read ({e}): delete it and its runs part, then resume"),
             });
+        }
+        if traced {
+            let trace_path = trace_dir.join(name);
+            if !trace_names.contains(name) {
+                return Err(StoreError::BadPart {
+                    path,
+                    reason: format!(
+                        "has no matching {TRACE_DIR}/{name} in this traced sweep (was it \
+                         deleted?): delete this runs part and its series part too, then resume \
+                         to run its runs again"
+                    ),
+                });
+            }
+            if let Err(e) = readable(&trace_path) {
+                return Err(StoreError::BadPart {
+                    path: trace_path,
+                    reason: format!(
+                        "cannot be read ({e}): delete it and its runs and series parts, then \
+                         resume"
+                    ),
+                });
+            }
         }
         scan_parts += 1;
         // NOTE: `+= usize::from(bool)` is avoided: rustc 1.95 miscompiles it at opt-level 2 when
@@ -642,13 +694,15 @@ pub fn scan(dir: &Path, total: u64, owned: &dyn Fn(u64) -> bool) -> Result<Scan,
             own_parts += 1;
         }
     }
-    for name in &series_names {
-        let Some((first, committed)) = part_first(name) else {
-            continue;
-        };
-        let uncommitted = !committed || !runs_names.contains(name);
-        if uncommitted && owned(first) {
-            leftovers.push(series_dir.join(name));
+    for (sub, names) in [(&series_dir, &series_names), (&trace_dir, &trace_names)] {
+        for name in names {
+            let Some((first, committed)) = part_first(name) else {
+                continue;
+            };
+            let uncommitted = !committed || !runs_names.contains(name);
+            if uncommitted && owned(first) {
+                leftovers.push(sub.join(name));
+            }
         }
     }
     Ok(Scan {
@@ -656,7 +710,7 @@ pub fn scan(dir: &Path, total: u64, owned: &dyn Fn(u64) -> bool) -> Result<Scan,
         parts: scan_parts,
         own_parts,
         leftovers,
-        strays: strays(dir, &runs_names, &series_names),
+        strays: strays(dir, &runs_names, &series_names, &trace_names),
     })
 }
 
@@ -672,31 +726,49 @@ pub fn remove_leftovers(leftovers: &[PathBuf]) -> Result<(), StoreError> {
     Ok(())
 }
 
-/// Writes one batch as the part `name`: series first, runs last (the commit), each atomically,
-/// with `metadata` (its `mbmf_schema` set per table). On failure nothing of the part is left
-/// behind.
+/// Writes one batch as the part `name`: the trace (when given) and the series first, runs last
+/// (the commit), each atomically, with `metadata` (its `mbmf_schema` set per table). On failure
+/// nothing of the part is left behind.
 pub fn write_part(
     dir: &Path,
     name: &str,
     runs: &RecordBatch,
     series: &RecordBatch,
+    trace: Option<&RecordBatch>,
     metadata: &[(String, String)],
 ) -> Result<(), StoreError> {
     let series_dir = dir.join(SERIES_DIR);
     let runs_dir = dir.join(RUNS_DIR);
+    let trace_dir = dir.join(TRACE_DIR);
     let series_path = series_dir.join(name);
     let runs_path = runs_dir.join(name);
+    let trace_path = trace_dir.join(name);
     // NOTE: a sink whose finish fails keeps its temporary file; remove it here.
     let series_meta = output::with_schema(metadata, output::provenance::SERIES_SCHEMA);
     let runs_meta = output::with_schema(metadata, output::provenance::RUNS_SCHEMA);
+    if let Some(trace) = trace {
+        let trace_meta = output::with_schema(metadata, output::provenance::TRACE_SCHEMA);
+        if let Err(e) = output::write_parquet(&trace_path, trace, trace_meta) {
+            let _ = fs::remove_file(trace_dir.join(sink_tmp_name(name)));
+            return Err(e.into());
+        }
+        sync_dir(&trace_dir);
+    }
+    let remove_trace = || {
+        if trace.is_some() {
+            let _ = fs::remove_file(&trace_path);
+        }
+    };
     if let Err(e) = output::write_parquet(&series_path, series, series_meta) {
         let _ = fs::remove_file(series_dir.join(sink_tmp_name(name)));
+        remove_trace();
         return Err(e.into());
     }
     sync_dir(&series_dir);
     if let Err(e) = output::write_parquet(&runs_path, runs, runs_meta) {
         let _ = fs::remove_file(runs_dir.join(sink_tmp_name(name)));
         let _ = fs::remove_file(&series_path);
+        remove_trace();
         return Err(e.into());
     }
     sync_dir(&runs_dir);
@@ -826,6 +898,8 @@ pub fn compact(dir: &Path, target_runs: u64, command: &str) -> Result<Compacted,
     let (lock, _) = Lock::acquire(dir, Shard::ALL)?;
     let runs_dir = dir.join(RUNS_DIR);
     let series_dir = dir.join(SERIES_DIR);
+    let trace_dir = dir.join(TRACE_DIR);
+    let traced = trace_dir.is_dir();
     let names: Vec<String> = list(&runs_dir)?
         .into_iter()
         .filter(|n| matches!(part_first(n), Some((_, true))))
@@ -883,7 +957,12 @@ pub fn compact(dir: &Path, target_runs: u64, command: &str) -> Result<Compacted,
     let aside = parent.join(format!(".{base}.pre-compact-{}", std::process::id()));
     let _ = fs::remove_dir_all(&staging);
     let result = (|| {
-        for sub in [RUNS_DIR, SERIES_DIR] {
+        let subs: &[&str] = if traced {
+            &[RUNS_DIR, SERIES_DIR, TRACE_DIR]
+        } else {
+            &[RUNS_DIR, SERIES_DIR]
+        };
+        for sub in subs {
             fs::create_dir_all(staging.join(sub)).map_err(io("create", &staging.join(sub)))?;
         }
         fs::copy(dir.join(SWEEP_FILE), staging.join(SWEEP_FILE))
@@ -902,7 +981,14 @@ pub fn compact(dir: &Path, target_runs: u64, command: &str) -> Result<Compacted,
                 if chunk.is_empty() {
                     return Ok::<(), StoreError>(());
                 }
-                write_merged(&runs_dir, &series_dir, &staging, chunk, total, command)?;
+                let trace = traced.then_some(trace_dir.as_path());
+                write_merged(
+                    (&runs_dir, &series_dir, trace),
+                    &staging,
+                    chunk,
+                    total,
+                    command,
+                )?;
                 parts_after += 1;
                 chunk.clear();
                 Ok(())
@@ -928,8 +1014,9 @@ pub fn compact(dir: &Path, target_runs: u64, command: &str) -> Result<Compacted,
                 ),
             ));
         }
-        sync_dir(&staging.join(RUNS_DIR));
-        sync_dir(&staging.join(SERIES_DIR));
+        for sub in subs {
+            sync_dir(&staging.join(sub));
+        }
         Ok(parts_after)
     })();
     let parts_after = match result {
@@ -956,10 +1043,10 @@ pub fn compact(dir: &Path, target_runs: u64, command: &str) -> Result<Compacted,
     })
 }
 
-/// Writes the parts of `chunk` (runs and series) as one part of `staging`.
+/// Writes the parts of `chunk` (runs, series and, for a traced sweep, trace) as one part of
+/// `staging`.
 fn write_merged(
-    runs_dir: &Path,
-    series_dir: &Path,
+    (runs_dir, series_dir, trace_dir): (&Path, &Path, Option<&Path>),
     staging: &Path,
     chunk: &[&(String, u64)],
     total: u64,
@@ -981,8 +1068,12 @@ fn write_merged(
         last = runs.into_iter().fold(last, u64::max);
     }
     let name = part_name(first, last, total);
-    // Series first, runs last, as a sweep commits a part.
-    for (from, sub) in [(series_dir, SERIES_DIR), (runs_dir, RUNS_DIR)] {
+    // Trace and series first, runs last, as a sweep commits a part.
+    let tables = trace_dir
+        .map(|t| (t, TRACE_DIR))
+        .into_iter()
+        .chain([(series_dir, SERIES_DIR), (runs_dir, RUNS_DIR)]);
+    for (from, sub) in tables {
         let mut sink: Option<output::ParquetSink> = None;
         for (part, _) in chunk {
             let (batches, kv) = read_all(&from.join(part))?;
@@ -1020,8 +1111,11 @@ fn write_merged(
 /// deleting anything (see [`committed`]).
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Committed {
-    /// The committed parts, in name order: each name is a runs part and its series part.
+    /// The committed parts, in name order: each name is a runs part and its series part (and,
+    /// in a traced sweep, its trace part).
     pub parts: Vec<String>,
+    /// The sweep is traced (SPEC 14): every committed part has its `trace/` part.
+    pub traced: bool,
     /// Files of `runs/` and `series/` that are neither committed parts nor a writer's own
     /// temporary files or uncommitted series parts: copies (`part-… (1).parquet`), files put
     /// there by hand. No reader should count them.
@@ -1096,7 +1190,9 @@ pub fn committed(dir: &Path) -> Result<Committed, StoreError> {
     };
     let runs_names = names_in(RUNS_DIR)?;
     let series_names = names_in(SERIES_DIR)?;
-    let strays = strays(dir, &runs_names, &series_names);
+    let trace_names = names_in(TRACE_DIR)?;
+    let traced = dir.join(TRACE_DIR).is_dir();
+    let strays = strays(dir, &runs_names, &series_names, &trace_names);
     let mut parts = Vec::new();
     let mut total: Option<u64> = None;
     let mut holder: Vec<(u64, usize)> = Vec::new();
@@ -1111,6 +1207,15 @@ pub fn committed(dir: &Path) -> Result<Committed, StoreError> {
                 reason: format!(
                     "has no matching {SERIES_DIR}/{name} (was it deleted?): its runs cannot be \
                      read as one dataset with their series"
+                ),
+            });
+        }
+        if traced && !trace_names.contains(name) {
+            return Err(StoreError::BadPart {
+                path,
+                reason: format!(
+                    "has no matching {TRACE_DIR}/{name} in this traced sweep (was it deleted?): \
+                     its runs cannot be read as one dataset with their trace"
                 ),
             });
         }
@@ -1175,6 +1280,7 @@ pub fn committed(dir: &Path) -> Result<Committed, StoreError> {
     }
     Ok(Committed {
         parts,
+        traced,
         strays,
         total,
         done: holder.len() as u64,

@@ -24,6 +24,12 @@
 //! with the same mathematical value but different last bits; [`Arithmetic`] selects which order.
 //! [`NaiveRun::new`] follows the SPEC literally.
 //!
+//! The two-step task (SPEC 13) is simulated from its own rules here, not from the engine's
+//! arrivals: its four reward probabilities (drawn after the initial state, drawn again when the
+//! experiment starts, a reward draw after a second-stage outcome, four normals of drift after
+//! it), its terminal second stage without reset step, and its stay probabilities from the list
+//! of the experiment's trials.
+//!
 //! Schedules of changes (SPEC 10) are read from their parsed events ([`Schedule`]) and applied
 //! here directly to the run's own copy of the environment, goal and human.
 //!
@@ -121,6 +127,14 @@ pub struct NaiveRun {
     /// SPEC 12.4: the Kalman MF's variances `var_mf[s][a]` and the average reward.
     var_mf: Vec<Vec<f64>>,
     rbar: f64,
+    /// SPEC 3.1: the MF's eligibility trace `e[s][a]` (used when lambda_mf > 0).
+    e: Vec<Vec<f64>>,
+    /// SPEC 13: the two-step task's reward probabilities p(1,0), p(1,1), p(2,0), p(2,1), when
+    /// the task is `twostep`.
+    twostep: Option<[f64; 4]>,
+    /// The experiment's two-step trials: (first-stage action, common transition, rewarded once
+    /// the second stage is done).
+    trials: Vec<(usize, bool, Option<bool>)>,
 }
 
 impl NaiveRun {
@@ -166,9 +180,11 @@ impl NaiveRun {
             spec.clone()
         };
         let state = draw_initial_state(&spec, &mut rng);
+        let twostep = (spec.name == "twostep").then(|| twostep_start(&mut rng));
         NaiveRun {
-            goal: spec.goal_state().expect("a goal task") as usize,
-            goal_reward: spec.goal.expect("a goal task").reward,
+            goal: spec.goal_state().map_or(usize::MAX, |g| g as usize),
+            // The two-step task has no goal; its largest reward (SPEC 12.3's R_max) is 1.
+            goal_reward: spec.goal.map_or(1.0, |g| g.reward),
             spec,
             params,
             arithmetic,
@@ -201,6 +217,9 @@ impl NaiveRun {
             rel_classes: VecDeque::new(),
             var_mf: vec![vec![params.kalman_v0; n_a]; n_s],
             rbar: 0.0,
+            e: vec![vec![0.0; n_a]; n_s],
+            twostep,
+            trials: Vec::new(),
         }
     }
 
@@ -246,6 +265,7 @@ impl NaiveRun {
             // SPEC 2.1: the reset step. Time passes; nothing is decided or learned.
             self.arrived_at_goal = false;
             self.state = draw_initial_state(&self.spec, &mut self.rng);
+            self.clear_trace();
         } else {
             self.act(babbling, t_exp);
         }
@@ -254,6 +274,11 @@ impl NaiveRun {
             // SPEC 7: end of babbling, back to an initial state (not a step).
             self.arrived_at_goal = false;
             self.state = draw_initial_state(&self.spec, &mut self.rng);
+            self.clear_trace();
+            // SPEC 13: the reward probabilities are drawn afresh for the experiment.
+            if self.twostep.is_some() {
+                self.twostep = Some(twostep_start(&mut self.rng));
+            }
         }
         if !babbling {
             self.maybe_checkpoint(t_exp);
@@ -431,6 +456,20 @@ impl NaiveRun {
         } else {
             0.0
         };
+        // SPEC 13: a second-stage action is rewarded with probability p(s, a) (drawn in
+        // babbling too, where the reward is withheld) and ends the trial.
+        let second_stage = self.twostep.is_some() && s != 0;
+        if let Some(p) = self.twostep {
+            if second_stage {
+                let rewarded = uniform(&mut self.rng) < p[(s - 1) * 2 + a];
+                reward = if rewarded && !babbling { 1.0 } else { 0.0 };
+                if !babbling && let Some(trial) = self.trials.last_mut() {
+                    trial.2 = Some(rewarded);
+                }
+            } else if !babbling {
+                self.trials.push((a, next == a + 1, None));
+            }
+        }
         // SPEC 11.1: only an attentive human with budget left brings the goal's reward.
         if !babbling && at_goal && self.reward_source == RewardSource::Human {
             let given = self.budget_left > 0
@@ -481,9 +520,10 @@ impl NaiveRun {
         };
         self.g[s][a] = given && !shaping;
 
-        // 8. Learning. The arrival is terminal when it is the goal at this time (SPEC 10).
-        let terminal = at_goal;
-        self.arrived_at_goal = terminal;
+        // 8. Learning. The arrival is terminal when it is the goal at this time (SPEC 10), or
+        // ends a two-step trial (then with no reset step: it is already the next first stage).
+        let terminal = at_goal || second_stage;
+        self.arrived_at_goal = at_goal;
         // SPEC 12.3 and 12.4: the arbiter sees the transition before the experts learn it.
         match self.params.controller {
             Controller::Reliability => self.reliability_update(s, a, learned, next, terminal),
@@ -518,6 +558,20 @@ impl NaiveRun {
             }
         }
         self.state = next;
+        // SPEC 13: after every trial each p takes a reflected Gaussian step, in slot order.
+        if second_stage && let Some(p) = &mut self.twostep {
+            let sd = self.params.drift_sd;
+            for p in p.iter_mut() {
+                let u1 = 1.0 - uniform(&mut self.rng);
+                let u2 = uniform(&mut self.rng);
+                let z = (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos();
+                let mut x = *p + sd * z;
+                while !(0.25..=0.75).contains(&x) {
+                    x = if x > 0.75 { 1.5 - x } else { 0.5 - x };
+                }
+                *p = x;
+            }
+        }
     }
 
     /// Steps 3 to 5 of SPEC 3.4: MC choice, inference, softmax, averaging, action draw.
@@ -891,11 +945,63 @@ impl NaiveRun {
         self.window[s].iter().any(|w| !w.is_empty())
     }
 
-    /// Eq. 4; no future term after a terminal arrival.
+    /// Eq. 4; no future term after a terminal arrival. With lambda_mf > 0 (SPEC 3.1): e(s, a)
+    /// = 1, every pair with e > 0 moves by alpha * delta * e, then every e decays by gamma *
+    /// lambda, or all are cleared after a terminal arrival.
     fn mf_learn(&mut self, s: usize, a: usize, r: f64, next: usize, terminal: bool) {
         let future = if terminal { 0.0 } else { max(&self.q_mf[next]) };
         let q = self.q_mf[s][a];
-        self.q_mf[s][a] = q + self.params.alpha_mf * (r + self.params.gamma_mf * future - q);
+        let p = self.params;
+        if p.lambda_mf == 0.0 {
+            self.q_mf[s][a] = q + p.alpha_mf * (r + p.gamma_mf * future - q);
+            return;
+        }
+        let delta = r + p.gamma_mf * future - q;
+        self.e[s][a] = 1.0;
+        for (qs, es) in self.q_mf.iter_mut().zip(&self.e) {
+            for (q, &e) in qs.iter_mut().zip(es) {
+                if e > 0.0 {
+                    *q += p.alpha_mf * delta * e;
+                }
+            }
+        }
+        if terminal {
+            self.clear_trace();
+        } else {
+            for e in self.e.iter_mut().flatten() {
+                *e *= p.gamma_mf * p.lambda_mf;
+            }
+        }
+    }
+
+    /// SPEC 3.1: no pair keeps a trace (after a terminal arrival, at a reset step, at the end of
+    /// babbling).
+    fn clear_trace(&mut self) {
+        for e in self.e.iter_mut().flatten() {
+            *e = 0.0;
+        }
+    }
+
+    /// SPEC 13: the probability that the first-stage action repeats the previous trial's,
+    /// after a previous trial (rewarded, common) of each kind, in the order rc, rr, uc, ur;
+    /// `None` where no trial followed one of that kind.
+    pub fn stays(&self) -> [Option<f64>; 4] {
+        let mut counts = [(0u32, 0u32); 4];
+        for pair in self.trials.windows(2) {
+            let ((a0, common, rewarded), (a1, _, _)) = (pair[0], pair[1]);
+            let Some(rewarded) = rewarded else { continue };
+            let kind = match (rewarded, common) {
+                (true, true) => 0,
+                (true, false) => 1,
+                (false, true) => 2,
+                (false, false) => 3,
+            };
+            counts[kind].0 += 1;
+            if a1 == a0 {
+                counts[kind].1 += 1;
+            }
+        }
+        counts.map(|(n, stay)| (n > 0).then(|| f64::from(stay) / f64::from(n)))
     }
 
     /// SPEC 3.2 and 10: keep the last N outcomes of (s, a), and the last reward of (s, a, s') and
@@ -994,6 +1100,11 @@ impl NaiveRun {
         self.window_p_mb = 0.0;
         self.window_decisions = 0;
     }
+}
+
+/// SPEC 13: the four reward probabilities, uniform in [0.25, 0.75], in slot order.
+fn twostep_start(rng: &mut Xoshiro256PlusPlus) -> [f64; 4] {
+    [(); 4].map(|_| 0.25 + (0.75 - 0.25) * uniform(rng))
 }
 
 /// An initial state, uniformly (one draw only when there are several).
