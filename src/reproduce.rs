@@ -27,6 +27,8 @@ use crate::sweep::keys::{Key, Value};
 use crate::sweep::store::RunSet;
 use crate::sweep::{Builder, RunError, Shard, runner};
 
+pub mod arbitration;
+
 /// Budgets of the task-1 budget scan (0 is the no-interaction condition).
 pub const FULL_BUDGETS: [u32; 7] = [10, 20, 30, 50, 100, 200, 300];
 /// Budget of both interaction types in task 2 (decision: the paper says "several hundred").
