@@ -24,6 +24,7 @@ use parquet::arrow::ArrowWriter;
 use parquet::basic::{Compression, ZstdLevel};
 use parquet::file::metadata::KeyValue;
 use parquet::file::properties::WriterProperties;
+use parquet::schema::types::ColumnPath;
 
 use crate::batch::{Batch, RunConfig};
 use crate::params::{Kind, PARAMS, Value};
@@ -110,6 +111,10 @@ impl Columns {
             Arc::new(values.map(Some).collect::<BooleanArray>()),
         );
     }
+    /// A non-null i64 column of values already signed.
+    fn push_int(&mut self, name: &str, values: Vec<i64>) {
+        self.push(name, false, Arc::new(Int64Array::from(values)));
+    }
     fn push(&mut self, name: &str, nullable: bool, array: ArrayRef) {
         let field = columns::field(name, array.data_type().clone(), nullable);
         self.fields.push(field);
@@ -131,29 +136,76 @@ fn signed<T: Into<u64>>(v: T) -> i64 {
 }
 
 /// The parameter columns shared by both tables: identity, the task, then every parameter of the
-/// registry in its order (SPEC 3–7).
+/// registry in its order (SPEC 3–7), one row per config.
 pub fn param_columns<'a, I>(cols: &mut Columns, task: &str, configs: I)
 where
     I: Iterator<Item = &'a RunConfig> + Clone,
 {
+    let configs: Vec<&RunConfig> = configs.collect();
+    run_param_columns(cols, task, &configs, None);
+}
+
+/// [`param_columns`] of rows where the config of run `r` fills `counts[r]` consecutive rows
+/// (one row each when `counts` is `None`). Each value is read once per run, not once per row,
+/// and a column is written out by filling: a series table repeats its run's parameters on
+/// every checkpoint row.
+fn run_param_columns(
+    cols: &mut Columns,
+    task: &str,
+    configs: &[&RunConfig],
+    counts: Option<&[usize]>,
+) {
     let c = configs;
-    cols.int("run_index", c.clone().map(|r| r.run_index));
+    cols.push_int(
+        "run_index",
+        repeated(c.iter().map(|r| signed(r.run_index)), counts),
+    );
     // The master seed is an identifier, not a quantity: kept unsigned so every accepted
     // --seed (any u64) is written as given.
-    cols.u64("master_seed", c.clone().map(|r| r.seed));
-    cols.str("task", c.clone().map(|_| task));
+    let seeds = repeated(c.iter().map(|r| r.seed), counts);
+    cols.push("master_seed", false, Arc::new(UInt64Array::from(seeds)));
+    let rows = counts.map_or(c.len(), |n| n.iter().sum());
+    cols.str("task", std::iter::repeat_n(task, rows));
     for p in PARAMS {
-        let values = c.clone().map(|r| (p.get)(&r.params));
+        let values = c.iter().map(|r| (p.get)(&r.params));
         match p.kind {
-            Kind::Real => cols.f64(p.name, values.map(|v| v.as_f64().unwrap_or(f64::NAN))),
-            Kind::Count => cols.int(p.name, values.map(|v| v.as_count().unwrap_or(0))),
-            Kind::Switch => cols.bool(p.name, values.map(|v| v == Value::Switch(true))),
+            Kind::Real => {
+                let v = repeated(values.map(|v| v.as_f64().unwrap_or(f64::NAN)), counts);
+                cols.push(p.name, false, Arc::new(Float64Array::from(v)));
+            }
+            Kind::Count => {
+                let v = values.map(|v| signed(v.as_count().unwrap_or(0)));
+                cols.push_int(p.name, repeated(v, counts));
+            }
+            Kind::Switch => {
+                let v = repeated(values.map(|v| v == Value::Switch(true)), counts);
+                cols.bool(p.name, v.into_iter());
+            }
             _ => {
                 let names: Vec<Value> = values.collect();
-                cols.str(p.name, names.iter().map(|v| v.as_str().unwrap_or("")));
+                let names = names.iter().map(|v| v.as_str().unwrap_or(""));
+                cols.str(p.name, repeated(names, counts).into_iter());
             }
         }
     }
+}
+
+/// The values of runs, each repeated `counts[r]` times when given.
+fn repeated<T: Clone>(values: impl Iterator<Item = T>, counts: Option<&[usize]>) -> Vec<T> {
+    let Some(counts) = counts else {
+        return values.collect();
+    };
+    let mut out = Vec::with_capacity(counts.iter().sum());
+    for (v, &n) in values.zip(counts) {
+        out.resize(out.len() + n, v);
+    }
+    out
+}
+
+/// Whether `name` is a column of [`param_columns`] that repeats a run's configuration (all
+/// but the run's index).
+fn is_repeated_column(name: &str) -> bool {
+    name == "master_seed" || name == "task" || PARAMS.iter().any(|p| p.name == name)
 }
 
 fn ratio(num: f64, den: u64) -> Option<f64> {
@@ -243,8 +295,9 @@ pub fn series_batch(batch: &Batch) -> Result<RecordBatch, OutputError> {
     let mut cols = Columns::default();
     let task = batch.spec().name.clone();
     let rows = || (0..batch.len()).flat_map(move |r| batch.series(r).iter().map(move |c| (r, c)));
-    let configs = batch.configs();
-    param_columns(&mut cols, &task, rows().map(|(r, _)| &configs[r]));
+    let configs: Vec<&RunConfig> = batch.configs().iter().collect();
+    let counts: Vec<usize> = (0..batch.len()).map(|r| batch.series(r).len()).collect();
+    run_param_columns(&mut cols, &task, &configs, Some(&counts));
     cols.int("step", rows().map(|(_, c)| c.step));
     cols.f64("cum_reward", rows().map(|(_, c)| c.cum_reward));
     cols.f64(
@@ -382,10 +435,19 @@ impl ParquetSink {
                 .collect();
             // zstd level 3 (parquet-rs's default level): about half snappy's size for these
             // repetitive parameter columns at a similar write speed.
-            let props = WriterProperties::builder()
+            let mut props = WriterProperties::builder()
                 .set_compression(Compression::ZSTD(ZstdLevel::default()))
-                .set_key_value_metadata(Some(kv))
-                .build();
+                .set_key_value_metadata(Some(kv));
+            // The parameter columns repeat a run's configuration on each of its rows: plain
+            // pages that zstd shrinks as well as a dictionary would, without hashing every value
+            // into one (most of the cost of writing them).
+            for field in batch.schema().fields() {
+                if is_repeated_column(field.name()) {
+                    let column = ColumnPath::from(field.name().as_str());
+                    props = props.set_column_dictionary_enabled(column, false);
+                }
+            }
+            let props = props.build();
             let schema: SchemaRef = batch.schema();
             let writer = ArrowWriter::try_new(file, schema, Some(props)).map_err(|source| {
                 OutputError::Parquet {
