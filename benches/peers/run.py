@@ -18,6 +18,7 @@ CPU seconds (of the process, all threads) are shown too: on a machine shared wit
 move less than wall time.
 
   benches/peers/run.sh [--repeats 3] [--mf-runs 4096] [--ec-runs 256] [--steps 2000] [--quick]
+  benches/peers/run.sh --early   # EC's early phase: 1,024 runs x 1,000 steps, no babbling
 """
 
 import argparse
@@ -104,8 +105,12 @@ def main():
     ap.add_argument("--babbling", type=int, default=1000)
     ap.add_argument("--core", type=int, default=0, help="the core every job is pinned to")
     ap.add_argument("--only", default="mf,ec", help="mf, ec or mf,ec")
+    ap.add_argument("--early", action="store_true",
+                    help="EC's early phase, the workload judged: --only ec --ec-runs 1024 --steps 1000 --babbling 0")
     ap.add_argument("--quick", action="store_true", help="a smoke test: 1 repeat, 256 MF runs, 32 EC runs, 100 babbling + 600 steps")
     args = ap.parse_args()
+    if args.early:
+        args.only, args.ec_runs, args.steps, args.babbling = "ec", 1024, 1000, 0
     if args.quick:
         args.repeats, args.mf_runs, args.ec_runs, args.steps, args.babbling = 1, 256, 32, 600, 100
     if not os.access(tidy1.mbmf_binary(), os.X_OK):
