@@ -239,3 +239,168 @@ fn mbmf_run_twostep_writes_its_runs_with_the_task_parameters() {
     ]);
     assert!(!out.status.success());
 }
+
+/// The stay columns (SPEC 13) end to end: in [0, 1] (the effects in [-1, 1]) and consistent
+/// with each other for twostep runs, read back from the Parquet; null for tidy1 runs.
+#[test]
+fn mbmf_run_writes_stay_columns_for_twostep_and_nulls_for_tidy1() {
+    let dir = tempfile::tempdir().unwrap();
+    common::run_quiet(
+        dir.path(),
+        &[
+            "--task",
+            "twostep",
+            "--controller",
+            "mf,mb",
+            "--runs",
+            "5",
+            "--lambda-mf",
+            "1",
+            "--tau",
+            "0.2",
+        ],
+    );
+    let runs = common::file_rows(&dir.path().join("runs.parquet"), &[]);
+    assert_eq!(runs.len(), 10);
+    let stays = ["stay_rc", "stay_rr", "stay_uc", "stay_ur"];
+    for row in &runs {
+        assert_eq!(row["lambda_mf"], "1.0");
+        let v: Vec<f64> = stays.iter().map(|c| row[*c].parse().unwrap()).collect();
+        assert!(v.iter().all(|p| (0.0..=1.0).contains(p)), "{row:?}");
+        let reward: f64 = row["stay_reward_effect"].parse().unwrap();
+        let interaction: f64 = row["stay_interaction"].parse().unwrap();
+        assert!((reward - (v[0] + v[1] - v[2] - v[3]) / 2.0).abs() < 1e-12);
+        assert!((interaction - (v[0] - v[1] - v[2] + v[3]) / 2.0).abs() < 1e-12);
+    }
+
+    let tidy = tempfile::tempdir().unwrap();
+    common::run_quiet(
+        tidy.path(),
+        &["--controller", "mf", "--runs", "2", "--steps", "200"],
+    );
+    for row in common::file_rows(&tidy.path().join("runs.parquet"), &[]) {
+        for c in stays
+            .iter()
+            .chain(&["stay_reward_effect", "stay_interaction"])
+        {
+            assert_eq!(row[*c], "null", "{c}");
+        }
+    }
+    // The stay verb says what is wrong with a dataset of another task.
+    let out = common::run(&["stay", tidy.path().to_str().unwrap(), "--by", "controller"]);
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("no run has a stay probability"), "{err}");
+    assert!(err.contains("mbmf run --task twostep"), "{err}");
+}
+
+/// `mbmf stay` on a small run: the table, the JSON (the same means as the runs' columns) and
+/// the figure.
+#[test]
+fn mbmf_stay_prints_tests_and_draws_the_stay_figure() {
+    let dir = tempfile::tempdir().unwrap();
+    common::run_quiet(
+        dir.path(),
+        &[
+            "--task",
+            "twostep",
+            "--controller",
+            "mf,mb",
+            "--runs",
+            "8",
+            "--steps",
+            "600",
+            "--tau",
+            "0.2",
+        ],
+    );
+    let data = dir.path().to_str().unwrap();
+    let out = common::run_ok(&["stay", data, "--by", "controller"]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.contains("reward effect") && text.contains("interaction"),
+        "{text}"
+    );
+    assert!(
+        text.lines()
+            .any(|l| l.starts_with("stay_interaction") && l.contains("mb") && l.contains("mf")),
+        "{text}"
+    );
+    let figure = dir.path().join("analysis");
+    for f in ["stay.svg", "stay.png"] {
+        assert!(figure.join(f).metadata().unwrap().len() > 1000, "{f}");
+    }
+    let svg = std::fs::read_to_string(figure.join("stay.svg")).unwrap();
+    assert!(svg.contains("controller=mb") && svg.contains("unrewarded"));
+
+    let figures = tempfile::tempdir().unwrap();
+    let out = common::run_ok(&[
+        "stay",
+        data,
+        "--by",
+        "controller",
+        "--json",
+        "--out",
+        figures.path().to_str().unwrap(),
+    ]);
+    let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(json["verb"], "stay");
+    let groups = json["groups"].as_array().unwrap();
+    assert_eq!(groups.len(), 2);
+    let runs = common::file_rows(&dir.path().join("runs.parquet"), &[]);
+    for g in groups {
+        let controller = g["value"].as_str().unwrap();
+        assert_eq!(g["runs"], 8);
+        let values: Vec<f64> = runs
+            .iter()
+            .filter(|r| r["controller"] == controller)
+            .map(|r| r["stay_interaction"].parse().unwrap())
+            .collect();
+        let mean = values.iter().sum::<f64>() / values.len() as f64;
+        let reported = g["columns"]["stay_interaction"]["mean"].as_f64().unwrap();
+        assert!((reported - mean).abs() < 1e-12, "{controller}");
+        assert!(g["columns"]["stay_rc"]["ci95"].as_f64().unwrap() > 0.0);
+    }
+    // Six columns, one pair of groups each; MB's interaction (about 0.3 here) is far above
+    // MF's (about 0), so its test is significant even with 8 runs against 8.
+    let pairs = json["pairs"].as_array().unwrap();
+    assert_eq!(pairs.len(), 6);
+    let interaction = pairs
+        .iter()
+        .find(|p| p["column"] == "stay_interaction")
+        .unwrap();
+    assert!(interaction["p"].as_f64().unwrap() < 0.01, "{interaction}");
+    assert_eq!(json["files"].as_array().unwrap().len(), 2);
+    assert!(figures.path().join("stay.png").exists());
+}
+
+/// `lambda_mf` > 0 with `vpi` is refused, naming both (SPEC 12.4), on the command line and in a
+/// sweep file.
+#[test]
+fn a_trace_with_vpi_is_refused_naming_both() {
+    let out = common::run(&["run", "--controller", "vpi", "--lambda-mf", "0.5"]);
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("--lambda-mf 0.5 cannot be used with --controller vpi"),
+        "{err}"
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let file = common::write_sweep(
+        dir.path(),
+        "s.toml",
+        "seeds = 1\n[fixed]\ntask = \"twostep\"\n[grid]\ncontroller = [\"mf\", \"vpi\"]\nlambda_mf = [0.0, 1.0]\n",
+    );
+    let out = common::run(&[
+        "sweep",
+        &file,
+        "--out",
+        dir.path().join("o").to_str().unwrap(),
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("lambda_mf = 1 cannot be used with controller = vpi"),
+        "{err}"
+    );
+}
