@@ -446,7 +446,9 @@ impl Run {
         mut each: impl FnMut([RecordBatch; 2]) -> ControlFlow<()>,
     ) -> Result<u64, RunError> {
         let job = &self.job;
-        let batch_size = pipeline::plan_batch_size(&job.spec, &job.firsts(), job.batch_size)?;
+        // A stream hands over runs and series only: its batches record no trace.
+        let batch_size =
+            pipeline::plan_batch_size(&job.spec, &job.firsts(), job.batch_size, false)?;
         let schedules = [job.schedule.clone()];
         let halted = Cell::new(false);
         let mut pipeline_job = pipeline::Job {

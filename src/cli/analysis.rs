@@ -777,7 +777,7 @@ fn stay_json(s: &stay::Stay, files: &[PathBuf]) -> serde_json::Value {
                 "p": p.test.p_value,
                 "p_holm": p.p_holm,
                 "effect": p.test.effect_size,
-                "method": method_name(p.test.method),
+                "method": p.test.method.name(),
             })
         })
         .collect();
