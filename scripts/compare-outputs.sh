@@ -54,5 +54,8 @@ boxes|--controller ec,mb --runs 4 --steps 3000 --boxes gbr --change 1500:boxes=b
 stingy|--task tidy2 --controller ec --runs 4 --steps 2000 --profile stingy --babbling 50
 nav|--task json:$NAV/realisticNavWorld.json --controller mf,mb,ec,rnd,entropy --runs 4 --steps 2500 --change 1601:goal=34
 navdel|--task json:$NAV/realisticNavWorld.json --controller ec,mb --runs 4 --steps 2500 --change 1601:world=json:$NAV/realisticNavWorld_noTrans20-21.json
+rules|--controller fixed,reliability,vpi --runs 4 --steps 2000 --interaction congratulation --budget 50
+mix|--controller ec,fixed,reliability --combine mix --runs 4 --steps 2000 --change 1000:boxes=brg
+twostep|--task twostep --controller mf,mb,ec,fixed,reliability,vpi --runs 6 --steps 400
 EOF2
 exit $fail
