@@ -1,7 +1,7 @@
 //! `mbmf reproduce --study arbitration`: which arbitration rule (SPEC 12) wins? Runs the shipped
 //! sweeps `sweeps/arbitration-*.toml` (each into its own dataset folder, resumably, as `mbmf
 //! sweep --resume`), reads the datasets back, compares every rule with EC (Mann-Whitney,
-//! Holm-corrected), ranks the rules on the reward/cost front, follows P(MB) around every change,
+//! Holm-corrected), ranks the rules on the front of reward, cost and (with a human) interactions, follows P(MB) around every change,
 //! draws the figures and writes `report.md` with every number and the command behind it.
 //!
 //! The sweep texts are compiled in, so the study is the one this binary was built with; the
@@ -569,14 +569,54 @@ fn holm_vs_reference(condition: &Condition, f: impl Fn(&Run) -> f64) -> Vec<f64>
         .collect()
 }
 
-/// Non-domination rank of every rule on (mean reward: max, mean cost: min).
-fn front_ranks(condition: &Condition) -> Vec<usize> {
-    let points: Vec<[f64; 2]> = condition
+/// Whether a human interacts in the condition: then the human's effort is an objective too.
+fn has_human(condition: &Condition) -> bool {
+    condition
         .cells
         .iter()
-        .map(|(_, c)| [c.mean(|r| r.reward), c.mean(|r| r.cost)])
+        .any(|(_, cell)| cell.mean(|r| r.interactions) > 0.0)
+}
+
+/// The objectives of a condition's front: mean reward (max) and mean cost (min) and, where a
+/// human interacts, mean interactions (min).
+fn objectives(condition: &Condition) -> &'static [Direction] {
+    if has_human(condition) {
+        &[
+            Direction::Maximize,
+            Direction::Minimize,
+            Direction::Minimize,
+        ]
+    } else {
+        &[Direction::Maximize, Direction::Minimize]
+    }
+}
+
+/// The `--objectives` of `mbmf pareto` that draws the same front.
+fn objectives_flag(condition: &Condition) -> &'static str {
+    if has_human(condition) {
+        "total_reward:max,cost_total:min,interactions:min"
+    } else {
+        "total_reward:max,cost_total:min"
+    }
+}
+
+/// A rule's point on the condition's front ([`objectives`]).
+fn front_point(condition: &Condition, cell: &Cell) -> Vec<f64> {
+    let mut point = vec![cell.mean(|r| r.reward), cell.mean(|r| r.cost)];
+    if has_human(condition) {
+        point.push(cell.mean(|r| r.interactions));
+    }
+    point
+}
+
+/// Non-domination rank of every rule on the condition's [`objectives`].
+fn front_ranks(condition: &Condition) -> Vec<usize> {
+    let points: Vec<Vec<f64>> = condition
+        .cells
+        .iter()
+        .map(|(_, c)| front_point(condition, c))
         .collect();
-    pareto::non_dominated_ranks(&points, &[Direction::Maximize, Direction::Minimize])
+    pareto::non_dominated_ranks(&points, objectives(condition))
 }
 
 fn fmt(x: f64, decimals: usize) -> String {
@@ -691,10 +731,7 @@ impl Study<'_> {
         let p_recovery = holm_vs_reference(c, |r| r.recovery);
         let ranks = front_ranks(c);
         let changed = c.change.is_some();
-        let human = c
-            .cells
-            .iter()
-            .any(|(_, cell)| cell.mean(|r| r.interactions) > 0.0);
+        let human = has_human(c);
         let _ = write!(
             t,
             "| rule | total reward (mean ± 95% CI) | p vs {REFERENCE} | reward, last 10% | \
@@ -748,22 +785,28 @@ impl Study<'_> {
             t,
             "\n{} runs per rule. p: two-sided Mann-Whitney against {REFERENCE}, Holm-corrected \
              over the {} comparisons of the column (* < 0.05, ** < 0.01, *** < 0.001). Front \
-             rank: non-domination rank on mean reward (max) and mean cost (min), 0 = on the \
-             front.{}\nCommands: `mbmf pareto {data}{filter} --objectives \
-             total_reward:max,cost_total:min` (the front), `mbmf stats {data}{filter} \
+             rank: non-domination rank on mean reward (max), mean cost (min){}, 0 = on the \
+             front.{}\nCommands: `mbmf pareto {data}{filter} --objectives {}` (the front), \
+             `mbmf stats {data}{filter} \
              --metric total_reward --by config_index` (every pair of rules; a rule is a \
              configuration of the sweep).\n",
             self.runs_per_cell,
             c.cells.len().saturating_sub(1),
+            if human {
+                " and mean interactions (min)"
+            } else {
+                ""
+            },
             if changed {
                 " Recovery: steps from the change to the first reward after it (a run with \
                  none counts as the steps left plus one)."
             } else if human {
                 " Interactions: the paper's minimal budget for the controller (EC's for the \
-                 rules absent from the paper); the front does not count the human's effort."
+                 rules absent from the paper), the human's effort, an objective of the front."
             } else {
                 ""
-            }
+            },
+            objectives_flag(c),
         );
         t.push_str(&verdict(c, &p_reward, &p_recovery, &ranks));
         self.headline_line(c);
@@ -896,6 +939,7 @@ impl Study<'_> {
         conditions: &[Condition],
         figures: &Path,
     ) -> Result<String, ReproduceError> {
+        let human = conditions.iter().any(has_human);
         let mut panels = Vec::new();
         for c in conditions {
             let ranks = front_ranks(c);
@@ -918,15 +962,18 @@ impl Study<'_> {
                 })
                 .collect();
             let front: Vec<usize> = (0..shown.len()).filter(|&k| ranks[shown[k]] == 0).collect();
-            let front_points: Vec<[f64; 2]> =
-                front.iter().map(|&k| [points[k].1, points[k].0]).collect();
-            let knee =
-                pareto::knee_point(&front_points, &[Direction::Maximize, Direction::Minimize])
-                    .map(|k| front[k]);
+            let front_points: Vec<Vec<f64>> = front
+                .iter()
+                .map(|&k| front_point(c, &c.cells[shown[k]].1))
+                .collect();
+            let knee = pareto::knee_point(&front_points, objectives(c)).map(|k| front[k]);
             panels.push(FrontPanel {
                 title: c.name.clone(),
                 points,
-                colour_values: Vec::new(),
+                colour_values: shown
+                    .iter()
+                    .map(|&i| c.cells[i].1.mean(|r| r.interactions))
+                    .collect(),
                 front,
                 knee,
                 labels: shown.iter().map(|&i| c.cells[i].0.clone()).collect(),
@@ -942,18 +989,28 @@ impl Study<'_> {
             ),
             x_label: "cost_total (mean Q values read; lower is better)".to_string(),
             y_label: "total_reward (mean; higher is better)".to_string(),
-            colour: None,
+            // Where a human interacts, the front is over three objectives: the third is the
+            // colour, and a line in the plane of the other two would zigzag.
+            colour: human.then(|| "interactions (mean)".to_string()),
             panels,
-            join_front: true,
+            join_front: !human,
             log_x: true,
             log_y: false,
         };
         let name = format!("front_{sweep}");
         plot::front_chart(&chart, &figures.join(&name))?;
+        let (drawn, objectives) = if human {
+            (
+                "the front over reward, cost and interactions ringed, the interactions in colour",
+                "total_reward:max,cost_total:min,interactions:min",
+            )
+        } else {
+            ("the front joined", "total_reward:max,cost_total:min")
+        };
         Ok(format!(
-            "Figure: `figures/{name}.png` (each rule's mean cost across, mean reward up; the \
-             front joined, its knee ringed). Command: `mbmf pareto {} --by {} --objectives \
-             total_reward:max,cost_total:min`.\n\n",
+            "Figure: `figures/{name}.png` (each rule's mean cost across, mean reward up; \
+             {drawn}, its knee ringed). Command: `mbmf pareto {} --by {} --objectives \
+             {objectives}`.\n\n",
             self.out_dir(sweep),
             match sweep {
                 "tidy" => "profile",
@@ -1080,7 +1137,7 @@ fn verdict(c: &Condition, p_reward: &[f64], p_recovery: &[f64], ranks: &[usize])
     }
     let _ = writeln!(
         t,
-        " On the reward/cost front: {}; {REFERENCE} {}.\n",
+        " On the front: {}; {REFERENCE} {}.\n",
         on_front.join(", "),
         if on_front.contains(&REFERENCE) {
             "is on it"
