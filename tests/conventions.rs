@@ -416,3 +416,56 @@ fn the_readme_shows_what_the_default_run_prints() {
     assert_eq!(again.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&again.stderr).contains("--force"));
 }
+
+/// `mbmf bench --json` is one object: a positive rate for every rule of SPEC 4 and 12 (and
+/// `combine = mix`) on tidy1 and twostep, the thread scaling, and the memory per instance.
+#[test]
+fn bench_json_is_one_object_with_every_rule_and_the_memory() {
+    let output = mbmf()
+        .args(["bench", "--json"])
+        .output()
+        .expect("mbmf runs");
+    assert!(output.status.success(), "{output:?}");
+    let text = String::from_utf8(output.stdout).unwrap();
+    let report: serde_json::Value = serde_json::from_str(&text).expect("one JSON object");
+    let rates = report["rates"].as_array().expect("rates");
+    let has = |task: &str, controller: &str, combine: &str| {
+        rates.iter().any(|r| {
+            r["task"] == task
+                && r["controller"] == controller
+                && r["combine"] == combine
+                && r["threads"] == 1
+                && r["steps_per_s"].as_f64().is_some_and(|x| x > 0.0)
+        })
+    };
+    for controller in ["mf", "mb", "rnd", "ec", "fixed", "reliability", "vpi"] {
+        assert!(has("tidy1", controller, "select"), "{controller} on tidy1");
+    }
+    for controller in ["ec", "fixed", "reliability", "vpi"] {
+        assert!(
+            has("twostep", controller, "select"),
+            "{controller} on twostep"
+        );
+    }
+    for controller in ["ec", "fixed", "reliability"] {
+        assert!(has("tidy1", controller, "mix"), "{controller} mix on tidy1");
+        assert!(
+            has("twostep", controller, "mix"),
+            "{controller} mix on twostep"
+        );
+    }
+    assert!(rates.iter().any(|r| r["threads"] == 2), "the 2-thread rate");
+    let state = report["memory"]["state_bytes_per_run"]
+        .as_u64()
+        .expect("bytes");
+    assert!(
+        (1024..=64 * 1024).contains(&state),
+        "{state} bytes per tidy1 instance"
+    );
+    let refused = mbmf()
+        .args(["bench", "--json", "--growth"])
+        .output()
+        .expect("mbmf runs");
+    assert_eq!(refused.status.code(), Some(2), "{refused:?}");
+    assert!(String::from_utf8_lossy(&refused.stderr).contains("--growth"));
+}

@@ -29,6 +29,10 @@ pub struct BenchArgs {
     /// Folder for the growth study's CSV and charts.
     #[arg(long, default_value = "out/bench")]
     pub out: PathBuf,
+    /// Print one JSON object (every rate and the memory per instance) instead of the tables,
+    /// for scripts that track the figures over time.
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// Runs `mbmf bench`.
@@ -41,12 +45,54 @@ pub fn command(args: &BenchArgs) -> Result<(), Failure> {
             args.growth_max
         )));
     }
+    if args.json && args.growth {
+        return Err(usage(anyhow!(
+            "--json prints the headline figures only; the --growth study writes its figures to \
+             growth.csv in --out: run it without --json"
+        )));
+    }
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
-    outln!(
+    let mut report = Report {
+        text: !args.json,
+        rates: Vec::new(),
+    };
+    say!(
+        report,
         "mbmf bench: {} thread(s) available; medians of timed windows, setup not timed",
         cores
     );
-    headline(cores).map_err(runtime)?;
+    let memory = headline(cores, &mut report).map_err(runtime)?;
+    if args.json {
+        let rates: Vec<serde_json::Value> = report
+            .rates
+            .iter()
+            .map(|r| {
+                serde_json::json!({
+                    "task": r.task,
+                    "controller": r.controller.name(),
+                    "combine": match r.combine {
+                        Combine::Select => "select",
+                        Combine::Mix => "mix",
+                    },
+                    "runs": r.runs,
+                    "threads": r.threads,
+                    "steps_per_s": r.steps_per_s,
+                })
+            })
+            .collect();
+        let json = serde_json::json!({
+            "verb": "bench",
+            "threads_available": cores,
+            "window": "steady state: the last 1,000 steps of each run, median of timed windows",
+            "rates": rates,
+            "memory": {
+                "runs": 10_000,
+                "state_bytes_per_run": memory.layout_bytes,
+                "resident_bytes_per_run": memory.rss_bytes,
+            },
+        });
+        outln!("{json:#}");
+    }
     if args.growth {
         let sizes = growth_sizes(args.growth_max);
         outln!();
@@ -80,11 +126,51 @@ fn tidy1_params(controller: Controller) -> Params {
     }
 }
 
-fn headline(cores: usize) -> anyhow::Result<()> {
+/// One measured rate: agent-steps per second at steady state.
+struct Rate {
+    task: &'static str,
+    controller: Controller,
+    combine: Combine,
+    runs: usize,
+    threads: usize,
+    steps_per_s: f64,
+}
+
+/// What `mbmf bench` measured, printed as it goes unless `--json` asks for one object at the end.
+struct Report {
+    text: bool,
+    rates: Vec<Rate>,
+}
+
+/// `outln!` when the report prints its tables.
+macro_rules! say {
+    ($report:expr) => {
+        if $report.text {
+            outln!();
+        }
+    };
+    ($report:expr, $($arg:tt)*) => {
+        if $report.text {
+            outln!($($arg)*);
+        }
+    };
+}
+use say;
+
+fn headline(cores: usize, report: &mut Report) -> anyhow::Result<crate::bench::Memory> {
     let spec = Arc::new(env::load("tidy1")?);
-    outln!();
-    outln!("tidy1, steady state (the last 1,000 of 11,000 steps), one thread:");
-    outln!("  {:<10} {:>6} {:>16}", "controller", "runs", "steps/s");
+    say!(report);
+    say!(
+        report,
+        "tidy1, steady state (the last 1,000 of 11,000 steps), one thread:"
+    );
+    say!(
+        report,
+        "  {:<10} {:>6} {:>16}",
+        "controller",
+        "runs",
+        "steps/s"
+    );
     for (controller, runs) in [
         (Controller::Mf, 1024),
         (Controller::Mb, 1024),
@@ -92,21 +178,33 @@ fn headline(cores: usize) -> anyhow::Result<()> {
         (Controller::Ec, 1024),
     ] {
         let rate = steady_rate(&spec, tidy1_params(controller), runs, &[1], 1000, 9)?[0];
-        outln!(
+        say!(
+            report,
             "  {:<10} {:>6} {:>16}",
             controller.name(),
             runs,
             thousands(rate)
         );
+        report.rates.push(Rate {
+            task: "tidy1",
+            controller,
+            combine: Combine::Select,
+            runs,
+            threads: 1,
+            steps_per_s: rate,
+        });
     }
 
     // The arbitration rules of SPEC 12 beside EC, on tidy1 and on the two-step task (whose runs
     // are 402 steps: the window is the whole run).
     for task in ["tidy1", "twostep"] {
         let spec = Arc::new(env::load(task)?);
-        outln!();
-        outln!("{task}, steady state, one thread, 1024 runs (SPEC 12's rules):");
-        outln!("  {:<16} {:>16}", "controller", "steps/s");
+        say!(report);
+        say!(
+            report,
+            "{task}, steady state, one thread, 1024 runs (SPEC 12's rules):"
+        );
+        say!(report, "  {:<16} {:>16}", "controller", "steps/s");
         for (controller, combine) in [
             (Controller::Ec, Combine::Select),
             (Controller::Fixed, Combine::Select),
@@ -128,7 +226,15 @@ fn headline(cores: usize) -> anyhow::Result<()> {
                 Combine::Select => controller.name().to_string(),
                 Combine::Mix => format!("{} (mix)", controller.name()),
             };
-            outln!("  {name:<16} {:>16}", thousands(rate));
+            say!(report, "  {name:<16} {:>16}", thousands(rate));
+            report.rates.push(Rate {
+                task,
+                controller,
+                combine,
+                runs: 1024,
+                threads: 1,
+                steps_per_s: rate,
+            });
         }
     }
 
@@ -137,20 +243,33 @@ fn headline(cores: usize) -> anyhow::Result<()> {
         threads.push(cores);
     }
     let runs = 2048;
-    outln!();
-    outln!("ec on tidy1, steady state, {runs} runs, by thread count:");
+    say!(report);
+    say!(
+        report,
+        "ec on tidy1, steady state, {runs} runs, by thread count:"
+    );
     let rates = steady_rate(&spec, tidy1_params(Controller::Ec), runs, &threads, 1000, 9)?;
     for (t, rate) in threads.iter().zip(&rates) {
-        outln!(
+        say!(
+            report,
             "  {t:>3} thread(s) {:>16} steps/s  ({:.2}x one thread)",
             thousands(*rate),
             rate / rates[0]
         );
+        report.rates.push(Rate {
+            task: "tidy1",
+            controller: Controller::Ec,
+            combine: Combine::Select,
+            runs,
+            threads: *t,
+            steps_per_s: *rate,
+        });
     }
 
-    outln!();
+    say!(report);
     let memory = memory_per_instance(&spec, 10_000)?;
-    outln!(
+    say!(
+        report,
         "memory: 10,000 tidy1 runs hold {:.1} KiB of state each{}",
         memory.layout_bytes as f64 / 1024.0,
         match memory.rss_bytes {
@@ -158,7 +277,7 @@ fn headline(cores: usize) -> anyhow::Result<()> {
             None => String::new(),
         }
     );
-    Ok(())
+    Ok(memory)
 }
 
 fn growth_row(point: &GrowthPoint) {
