@@ -166,31 +166,6 @@ fn warnings_come_back_as_data_and_refusals_are_usage_errors() {
     );
 }
 
-/// The rows of record batches, as [`file_rows`] gives a file's.
-fn batch_rows(batches: &[arrow::record_batch::RecordBatch], skip: &[&str]) -> Vec<Row> {
-    use arrow::util::display::array_value_to_string;
-    let mut out = Vec::new();
-    for batch in batches {
-        let schema = batch.schema();
-        for r in 0..batch.num_rows() {
-            let mut row = Row::new();
-            for (field, col) in schema.fields().iter().zip(batch.columns()) {
-                if skip.contains(&field.name().as_str()) {
-                    continue;
-                }
-                let v = if col.is_null(r) {
-                    "null".to_string()
-                } else {
-                    array_value_to_string(col, r).unwrap()
-                };
-                row.insert(field.name().clone(), v);
-            }
-            out.push(row);
-        }
-    }
-    out
-}
-
 #[test]
 fn the_stream_hands_over_the_rows_the_files_hold_batch_by_batch() {
     let dir = tempfile::tempdir().unwrap();

@@ -9,6 +9,7 @@ use std::fs::File;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
+use arrow::record_batch::RecordBatch;
 use arrow::util::display::array_value_to_string;
 use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
 use std::sync::Arc;
@@ -100,9 +101,15 @@ pub fn file_rows(file: &Path, skip: &[&str]) -> Vec<Row> {
         .unwrap_or_else(|e| panic!("{} is not a readable Parquet file: {e}", file.display()))
         .build()
         .unwrap();
+    let batches: Vec<RecordBatch> = reader.map(|batch| batch.unwrap()).collect();
+    batch_rows(&batches, skip)
+}
+
+/// The rows of record batches (a file's, or a table handed over in memory), every value as its
+/// text, `null` for a null, leaving out the columns in `skip`.
+pub fn batch_rows(batches: &[RecordBatch], skip: &[&str]) -> Vec<Row> {
     let mut out = Vec::new();
-    for batch in reader {
-        let batch = batch.unwrap();
+    for batch in batches {
         let schema = batch.schema();
         for r in 0..batch.num_rows() {
             let mut row = Row::new();
