@@ -4,9 +4,7 @@
 //! the rank-biserial correlation as effect size.
 
 use crate::analysis::AnalysisError;
-use crate::analysis::dataset::{
-    Column, Table, Value, configuration_columns, distinct_values, group_rows, varying_columns,
-};
+use crate::analysis::dataset::{Column, Table, Value, distinct_values, group_rows, mixed_columns};
 use crate::analysis::stats::{self, Alternative, MannWhitney};
 
 /// One group of runs: those sharing a value of the `--by` column.
@@ -129,18 +127,7 @@ pub fn compare(table: &Table, by: &str, metric: &str) -> Result<Comparison, Anal
     for (pair, p) in pairs.iter_mut().zip(adjusted) {
         pair.p_holm = p;
     }
-    let others: Vec<String> = configuration_columns(table)
-        .into_iter()
-        .filter(|c| c != by)
-        .collect();
-    let mut mixed: Vec<String> = Vec::new();
-    for (_, rows) in &grouped {
-        for c in varying_columns(table, &others, rows) {
-            if !mixed.contains(&c) {
-                mixed.push(c);
-            }
-        }
-    }
+    let mixed = mixed_columns(table, by, &grouped);
     Ok(Comparison {
         source: table.source().to_owned(),
         by: by.to_owned(),

@@ -1323,6 +1323,24 @@ pub fn group_rows(table: &Table, keys: &[String]) -> Result<Groups, DatasetError
         .collect())
 }
 
+/// The configuration columns other than `by` that vary within a group of `grouped`: groups that
+/// mix configurations, which the verbs comparing groups name in a note.
+pub fn mixed_columns(table: &Table, by: &str, grouped: &Groups) -> Vec<String> {
+    let others: Vec<String> = configuration_columns(table)
+        .into_iter()
+        .filter(|c| c != by)
+        .collect();
+    let mut mixed: Vec<String> = Vec::new();
+    for (_, rows) in grouped {
+        for c in varying_columns(table, &others, rows) {
+            if !mixed.contains(&c) {
+                mixed.push(c);
+            }
+        }
+    }
+    mixed
+}
+
 /// The columns among `keys` that take more than one value over `rows` of `table`.
 pub fn varying_columns(table: &Table, keys: &[String], rows: &[usize]) -> Vec<String> {
     keys.iter()

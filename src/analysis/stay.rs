@@ -6,7 +6,7 @@
 //! `mbmf stats` does for one metric).
 
 use crate::analysis::AnalysisError;
-use crate::analysis::dataset::{Table, Value, configuration_columns, group_rows, varying_columns};
+use crate::analysis::dataset::{Table, Value, group_rows, mixed_columns};
 use crate::analysis::stats::{self, Alternative, MannWhitney};
 
 /// The stay columns a `twostep` run writes, in the order they are reported: the four
@@ -163,18 +163,7 @@ pub fn stay(table: &Table, by: &str) -> Result<Stay, AnalysisError> {
         }
         pairs.extend(these);
     }
-    let others: Vec<String> = configuration_columns(table)
-        .into_iter()
-        .filter(|c| c != by)
-        .collect();
-    let mut mixed: Vec<String> = Vec::new();
-    for (_, rows) in &grouped {
-        for c in varying_columns(table, &others, rows) {
-            if !mixed.contains(&c) {
-                mixed.push(c);
-            }
-        }
-    }
+    let mixed = mixed_columns(table, by, &grouped);
     Ok(Stay {
         source: dataset,
         by: by.to_owned(),
