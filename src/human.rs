@@ -27,7 +27,13 @@ pub struct Encounter<'a> {
     pub t_exp: u32,
     /// The run's random stream.
     pub rng: &'a mut Xoshiro256PlusPlus,
+    /// A real person's takeover waiting for the step (the action they chose, SPEC 15), or
+    /// [`NO_PUT`]; always [`NO_PUT`] for a simulated human.
+    pub put: &'a mut u16,
 }
+
+/// No takeover waiting (see [`Encounter::put`]).
+pub const NO_PUT: u16 = u16::MAX;
 
 impl Encounter<'_> {
     /// An opportunity to interact: one draw; an attentive human is counted by `given` and spends
@@ -55,11 +61,7 @@ impl Encounter<'_> {
         if !decides(self.rng) {
             return false;
         }
-        given(self.stats);
-        *self.budget_left -= 1;
-        if *self.budget_left == 0 {
-            self.stats.budget_exhausted_step = self.t_exp;
-        }
+        spend(self.budget_left, self.stats, self.t_exp, given);
         true
     }
 
@@ -67,10 +69,23 @@ impl Encounter<'_> {
     /// over from the robot, else `None`.
     #[inline]
     pub fn takeover(&mut self, s: usize) -> Option<usize> {
-        if self.human.interaction != Interaction::Takeover {
-            return None;
-        }
+        let person = match self.human.interaction {
+            Interaction::Takeover => false,
+            Interaction::Person => true,
+            _ => return None,
+        };
         let put = self.tables.map_or(NO_TAKEOVER, |h| h.takeover_action[s]);
+        if person {
+            // A person's choice, if they made one while the robot holds a cube: no draw.
+            let chosen = std::mem::replace(self.put, NO_PUT);
+            if put == NO_TAKEOVER || chosen == NO_PUT {
+                return None;
+            }
+            spend(self.budget_left, self.stats, self.t_exp, |s| {
+                s.takeovers += 1
+            });
+            return Some(usize::from(chosen));
+        }
         if put == NO_TAKEOVER {
             return None;
         }
@@ -86,7 +101,7 @@ impl Encounter<'_> {
     /// is wrong with probability e; a wrong judgment gives feedback to an action that does not
     /// merit it (and spends budget, as any interaction) or withholds it from one that does.
     #[inline]
-    pub fn feedback(&mut self, sa: usize) -> u8 {
+    pub fn feedback(&mut self, sa: usize) -> i8 {
         if *self.budget_left == 0 {
             return 0;
         }
@@ -113,7 +128,7 @@ impl Encounter<'_> {
                 }
             },
         );
-        u8::from(given)
+        i8::from(given)
     }
 
     /// SPEC 11.2 after the robot's relevant action `sa`: the state an attentive nuisance human
@@ -143,6 +158,22 @@ impl Encounter<'_> {
     }
 }
 
+/// An interaction given at experiment step `t_exp`: counted by `given`, one unit of budget
+/// spent, and the step that spends the last recorded.
+#[inline(always)]
+pub fn spend(
+    budget_left: &mut u32,
+    stats: &mut RunStats,
+    t_exp: u32,
+    given: impl FnOnce(&mut RunStats),
+) {
+    given(stats);
+    *budget_left -= 1;
+    if *budget_left == 0 {
+        stats.budget_exhausted_step = t_exp;
+    }
+}
+
 /// The judgment of an attentive human with error probability `error_prob` on an action that
 /// `merits` feedback (a relevant action for congratulation, an error for punishment), from the
 /// judgment draw `u`: wrong when `u < error_prob`, so feedback comes with probability
@@ -154,11 +185,13 @@ pub fn judges(merits: bool, error_prob: f64, u: f64) -> bool {
 
 /// The weight of G(s, a) in the experts' softmax (Eq. 8): +zeta for congratulation, -zeta for
 /// punishment, 0 otherwise, and 0 for a congratulation that shapes the reward instead (11.3).
+/// A person's G is +1 (congratulation) or -1 (punishment), weighted by +zeta.
 #[inline]
 pub fn bonus_weight(human: &HumanParams, effect: CongratulationEffect) -> f64 {
     match human.interaction {
         Interaction::Congratulation if effect == CongratulationEffect::Bias => human.zeta,
         Interaction::Punishment => -human.zeta,
+        Interaction::Person => human.zeta,
         _ => 0.0,
     }
 }
@@ -181,7 +214,7 @@ mod tests {
 
     /// The outcome of one feedback opportunity on pair `sa`: G, the budget left, the counters
     /// and the draws taken from a stream seeded with `seed`.
-    fn feedback(human: HumanParams, sa: usize, seed: u64) -> (u8, u32, RunStats, usize) {
+    fn feedback(human: HumanParams, sa: usize, seed: u64) -> (i8, u32, RunStats, usize) {
         let tables = tables();
         let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed);
         let start = rng.clone();
@@ -193,6 +226,7 @@ mod tests {
             stats: &mut stats,
             t_exp: 9,
             rng: &mut rng,
+            put: &mut { NO_PUT },
         }
         .feedback(sa);
         let draws = (0..4)
@@ -282,7 +316,7 @@ mod tests {
                     assert_eq!((stats.forgotten, draws), (0, 2), "seed {seed}");
                     1 + usize::from(wrong)
                 };
-                assert_eq!(left, 5 - u32::from(g), "seed {seed}");
+                assert_eq!(left, 5 - u32::from(g == 1), "seed {seed}");
                 seen[case][sa] += 1;
             }
         }
@@ -303,6 +337,7 @@ mod tests {
             stats: &mut stats,
             t_exp: 1,
             rng: &mut rng,
+            put: &mut { NO_PUT },
         };
         assert_eq!(meet.feedback(0), 0);
         assert_eq!(
@@ -328,6 +363,7 @@ mod tests {
             stats: &mut stats,
             t_exp: 42,
             rng: &mut rng,
+            put: &mut { NO_PUT },
         }
         .feedback(1);
         assert_eq!((g, budget_left, stats.budget_exhausted_step), (1, 0, 42));

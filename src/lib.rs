@@ -30,8 +30,11 @@ pub mod rng;
 pub mod run;
 pub mod run_stats;
 pub mod schedule;
+pub mod session;
 pub mod sizing;
 pub mod suggest;
 pub mod sweep;
 pub mod vec_env;
+#[cfg(feature = "web")]
+pub mod web;
 pub mod whole_file;

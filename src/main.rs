@@ -11,7 +11,7 @@ mod cli;
 #[allow(unused_imports)]
 use mbmf::{
     analysis, batch, bench, env, error, expert, human, meta, output, params, pipeline, plot,
-    reproduce, rng, run, run_stats, schedule, sizing, suggest, sweep, whole_file,
+    reproduce, rng, run, run_stats, schedule, session, sizing, suggest, sweep, web, whole_file,
 };
 
 /// The system allocator, except that running out of memory ends the process with a message,

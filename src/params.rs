@@ -119,6 +119,7 @@ names! {
         Takeover => "takeover",
         Punishment => "punishment",
         Nuisance => "nuisance",
+        Person => "person",
     }
     RewardSource { Environment => "environment", Human => "human" }
     CongratulationEffect { Bias => "bias", Reward => "reward" }
@@ -181,6 +182,10 @@ pub enum Interaction {
     /// The human undoes a relevant action: the cube just put away goes back on the table
     /// (SPEC 11.2, the paper's future work).
     Nuisance,
+    /// A real person at `mbmf teach` (SPEC 15): congratulates, punishes or takes over as they
+    /// choose. Not a simulated human: `run` and `sweep` refuse it.
+    #[cfg_attr(feature = "cli", value(skip))]
+    Person,
 }
 
 /// Who brings the goal's reward (SPEC 11.1).
@@ -312,7 +317,7 @@ pub fn paper_budget(controller: Controller, interaction: Interaction) -> u32 {
         (Interaction::Congratulation | Interaction::Punishment, _) => 30,
         (Interaction::Takeover, Controller::Mf) => 200,
         (Interaction::Takeover, _) => 50,
-        (Interaction::None | Interaction::Nuisance, _) => 0,
+        (Interaction::None | Interaction::Nuisance | Interaction::Person, _) => 0,
     }
 }
 

@@ -328,6 +328,7 @@ fn step_one(
                 stats: &mut copy.stats,
                 t_exp: copy.t,
                 rng: &mut copy.rng,
+                put: &mut { crate::human::NO_PUT },
             }
         };
     }

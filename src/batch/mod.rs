@@ -4,11 +4,13 @@
 //! Runs never share mutable data and each owns its random stream, seeded from (master seed, run
 //! index) only, so results do not depend on batch size, thread count or scheduling order.
 
+mod person;
 mod settled;
 mod step;
 mod storage;
 pub mod trace;
 
+pub use person::Refusal;
 pub use settled::Settled;
 use storage::{Rest, Tables};
 pub use storage::{RunView, Sizes};
@@ -112,6 +114,9 @@ pub struct Cursor {
     pub checkpoints_written: u32,
     /// Pairs in the MF eligibility trace (`lambda_mf` > 0 only).
     pub eligible: u32,
+    /// The action a real person chose to take over with at the next step
+    /// ([`crate::human::NO_PUT`]: none; SPEC 15).
+    pub person_put: u16,
 }
 
 impl Cursor {
@@ -122,6 +127,7 @@ impl Cursor {
             budget_left: params.human.budget,
             human: params.human,
             reward_source: params.reward_source,
+            person_put: crate::human::NO_PUT,
             ..Cursor::default()
         }
     }
@@ -193,6 +199,16 @@ impl Batch {
         for config in &configs {
             crate::env::registry::check_params(&spec, &config.params)?;
         }
+        Batch::unchecked(spec, configs, schedules, run_schedule)
+    }
+
+    /// [`Batch::with_schedules`] once each run's parameters are known to fit the task.
+    fn unchecked(
+        spec: Arc<Spec>,
+        configs: Vec<RunConfig>,
+        schedules: &[Schedule],
+        run_schedule: &[usize],
+    ) -> Result<Batch, ConfigError> {
         assert!(run_schedule.is_empty() || run_schedule.len() == configs.len());
         // One plan per distinct (schedule, what compiling depends on in the parameters).
         let none = Schedule::default();

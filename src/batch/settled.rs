@@ -45,7 +45,7 @@ pub struct Fold<'a> {
     /// The expert's Q row in the state.
     pub q: &'a [f64],
     /// G(s, .) of Eq. 8.
-    pub g: &'a [u8],
+    pub g: &'a [i8],
     /// The weight of G in the softmax.
     pub bonus: f64,
     /// The softmax temperature.
@@ -103,7 +103,7 @@ impl Settled {
 mod tests {
     use super::*;
 
-    const G: [u8; 3] = [0; 3];
+    const G: [i8; 3] = [0; 3];
 
     /// One state's MF softmax buffer, averaged distribution, flags and kept entropy.
     struct State {

@@ -495,6 +495,7 @@ fn encounter<'r>(
         stats: run.stats,
         t_exp,
         rng: run.rng,
+        put: &mut run.cursor.person_put,
     }
 }
 

@@ -28,6 +28,7 @@ pub mod reproduce;
 pub mod run;
 pub mod signal;
 pub mod sweep;
+pub mod teach;
 
 use args::threads_count;
 
@@ -153,6 +154,15 @@ pub enum Command {
     Reproduce(reproduce::ReproduceArgs),
     /// Print the headline speed figures of this machine in about a minute.
     Bench(bench::BenchArgs),
+    /// Serve a web page on which a person teaches a live run (each tab a session, saved as it
+    /// goes).
+    ///
+    /// Example: mbmf teach --controller ec --task tidy1 --budget 100
+    Teach(Box<teach::TeachArgs>),
+    /// Replay a traced run (simulated or a person's session) in the web page.
+    ///
+    /// Example: mbmf view sessions --run 0
+    View(teach::ViewArgs),
     /// Inspect or export an environment.
     #[command(subcommand)]
     Env(env::EnvCommand),
@@ -225,6 +235,8 @@ pub fn execute(cli: &Cli) -> Result<(), Failure> {
         Command::Plot(args) => plot::plot(args),
         Command::Reproduce(args) => reproduce::command(args),
         Command::Bench(args) => bench::command(args),
+        Command::Teach(args) => teach::teach(args),
+        Command::View(args) => teach::view(args),
         Command::Env(cmd) => env::command(cmd),
         Command::Completions(args) => docs::completions(args),
         Command::Man(args) => docs::man(args),

@@ -192,6 +192,50 @@ pub fn default_babbling(task: &str) -> u32 {
 /// with its rewards, and a human its task allows (SPEC 5, 11.1). Task parameters are checked
 /// where they configure the world ([`configure`]).
 pub fn check_params(spec: &Spec, params: &Params) -> Result<(), crate::params::ConfigError> {
+    if params.human.interaction == Interaction::Person {
+        return Err(crate::params::ConfigError::InteractionUnsupported {
+            task: spec.name.clone(),
+            interaction: "person".to_string(),
+            accepted: "a real person teaches only through `mbmf teach`; a simulated human is \
+                       none, congratulation, takeover, punishment or nuisance"
+                .to_string(),
+        });
+    }
+    check_world(spec, params)
+}
+
+/// [`check_params`] for a run a real person teaches (SPEC 15): any robot, on a task whose
+/// world says where a takeover or feedback can happen, with the softmax bonus (a person's
+/// feedback comes after the step has learned, so it cannot shape that step's reward) and the
+/// environment's reward.
+pub fn check_person(spec: &Spec, params: &Params) -> Result<(), crate::params::ConfigError> {
+    use crate::params::{ConfigError, CongratulationEffect};
+    let refuse = |accepted: &str| {
+        Err(ConfigError::InteractionUnsupported {
+            task: spec.name.clone(),
+            interaction: "person".to_string(),
+            accepted: accepted.to_string(),
+        })
+    };
+    if params.human.interaction != Interaction::Person {
+        return refuse("a person's session has the interaction `person`");
+    }
+    if spec.human.is_none() {
+        return refuse("a person teaches a task with cubes to judge and take: tidy1 or tidy2");
+    }
+    if params.congratulation_effect != CongratulationEffect::Bias {
+        return refuse(
+            "a person's feedback arrives after the step has learned: congratulation_effect bias",
+        );
+    }
+    if params.reward_source != RewardSource::Environment {
+        return refuse("a person gives feedback, not the goal's reward: reward_source environment");
+    }
+    check_world(spec, params)
+}
+
+/// The checks of [`check_params`] that hold for any human.
+fn check_world(spec: &Spec, params: &Params) -> Result<(), crate::params::ConfigError> {
     use crate::params::ConfigError;
     params.validate()?;
     params.validate_for_reward(spec.max_abs_reward())?;
@@ -207,6 +251,7 @@ pub fn check_params(spec: &Spec, params: &Params) -> Result<(), crate::params::C
     }
     let interaction = params.human.interaction;
     if interaction != Interaction::None
+        && interaction != Interaction::Person
         && params.human.budget > 0
         && !allows_interaction(spec, interaction)
     {

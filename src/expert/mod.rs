@@ -9,7 +9,7 @@ pub mod mf;
 ///
 /// The maximum is subtracted first so no `exp` overflows, whatever the values and `tau`.
 #[inline]
-pub fn softmax_biased(q: &[f64], g: &[u8], bonus: f64, tau: f64, out: &mut [f64]) {
+pub fn softmax_biased(q: &[f64], g: &[i8], bonus: f64, tau: f64, out: &mut [f64]) {
     debug_assert!(q.len() == g.len() && q.len() == out.len());
     // Equal lengths up front, so the loops below carry no bounds checks and the element-wise
     // ones vectorise.

@@ -495,7 +495,11 @@ impl NaiveRun {
             let merits = match interaction {
                 Interaction::Congratulation => self.is_relevant(s, a),
                 Interaction::Punishment => self.is_error(s, a),
-                Interaction::None | Interaction::Takeover | Interaction::Nuisance => false,
+                // A person's feedback is not drawn: the reference simulates humans only.
+                Interaction::None
+                | Interaction::Takeover
+                | Interaction::Nuisance
+                | Interaction::Person => false,
             };
             let judging = matches!(
                 interaction,
@@ -884,6 +888,7 @@ impl NaiveRun {
         let bonus = match self.human.interaction {
             Interaction::Congratulation => self.human.zeta,
             Interaction::Punishment => -self.human.zeta,
+            Interaction::Person => self.human.zeta,
             Interaction::None | Interaction::Takeover | Interaction::Nuisance => 0.0,
         };
         let biased: Vec<f64> = q_row
