@@ -306,6 +306,56 @@ def two(pages, url, url2):
     return result
 
 
+# Sent by a second tab on its own WebSocket: each must close that socket only.
+HOSTILE = [
+    "not json",
+    '{"type":"load","file":"/etc/passwd"}',
+    '{"type":"pace","ms":1,"path":"../runs"}',
+    '{"type":"feedback","step":1,"sign":1000}',
+    "x" * 4096,
+]
+
+
+def hostile(pages, url):
+    page, other = Page("person"), Page("hostile")
+    pages += [page, other]
+    page.start(url)
+    page.pace_to_minimum()
+    before = page.first_step()
+    other.driver.get(url)
+    closes = []
+    for text in HOSTILE:
+        # A raw socket from the same page origin, as a tampered tab would open it.
+        code = other.driver.execute_async_script(
+            """
+            const [text, done] = arguments;
+            const ws = new WebSocket((location.protocol === 'https:' ? 'wss' : 'ws') +
+                                     '://' + location.host + '/ws');
+            let sent = false;
+            ws.onmessage = (e) => {
+              if (!sent) { sent = true; ws.send(text); }
+            };
+            ws.onclose = (e) => done([e.code, e.reason]);
+            setTimeout(() => done(['open', '']), 8000);
+            """, text)
+        closes.append(code)
+    still = [c for c in closes if c[0] == "open"]
+    if still:
+        raise Failure(f"a hostile message did not close its socket: {still}")
+    after = wait_until(lambda: page.live_step() >= before + 20 and page.live_step(),
+                       "the person's session to go on", 20)
+    if page.state() != "running":
+        raise Failure(f"the person's session is {page.state()} after the hostile messages")
+    page.feedback("congratulate", after)
+    page.check_console()
+    result = {"closes": closes, "step_before": before, "step_after": page.step(),
+              "congratulated": page.acked("congratulation")}
+    for p_ in (page, other):
+        p_.quit()
+        pages.remove(p_)
+    return result
+
+
 def view(pages, url):
     page = Page("view")
     pages.append(page)
@@ -376,13 +426,14 @@ def screenshot(pages, path, url):
 
 
 def main(argv):
-    usage = ("usage: teach_browser.py teach URL | two URL URL2 | view URL | "
+    usage = ("usage: teach_browser.py teach URL | two URL URL2 | hostile URL | view URL | "
              "screenshot PATH URL")
     if len(argv) < 2:
         print(usage, file=sys.stderr)
         return 2
     scenario, args = argv[1], argv[2:]
-    runs = {"teach": (teach, 1), "two": (two, 2), "view": (view, 1), "screenshot": (screenshot, 2)}
+    runs = {"teach": (teach, 1), "two": (two, 2), "view": (view, 1), "screenshot": (screenshot, 2),
+            "hostile": (hostile, 1)}
     if scenario not in runs or len(args) != runs[scenario][1]:
         print(usage, file=sys.stderr)
         return 2

@@ -6,8 +6,10 @@
 
 use std::collections::BTreeMap;
 use std::fs::File;
+use std::io::Read as _;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::{Child, Command, Output, Stdio};
+use std::time::{Duration, Instant};
 
 use arrow::record_batch::RecordBatch;
 use arrow::util::display::array_value_to_string;
@@ -369,4 +371,47 @@ pub fn proptest_config(cases: u32) -> proptest::test_runner::Config {
             .unwrap_or(cases),
         ..proptest::test_runner::Config::default()
     }
+}
+
+/// A running `mbmf` server and the URL it printed.
+pub struct Served {
+    child: Child,
+    /// host:port.
+    pub addr: String,
+}
+
+impl Drop for Served {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// Starts `mbmf ARGS --port 0` and waits for its URL.
+pub fn serve(args: &[&str]) -> Served {
+    let mut child = mbmf()
+        .args(args)
+        .args(["--port", "0"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let mut stdout = child.stdout.take().unwrap();
+    let mut text = String::new();
+    let started = Instant::now();
+    let mut buf = [0u8; 256];
+    while !text.contains('\n') && started.elapsed() < Duration::from_secs(20) {
+        let n = stdout.read(&mut buf).unwrap();
+        if n == 0 {
+            break;
+        }
+        text.push_str(&String::from_utf8_lossy(&buf[..n]));
+    }
+    let addr = text
+        .split("http://")
+        .nth(1)
+        .and_then(|r| r.split('/').next())
+        .unwrap_or_else(|| panic!("no URL in {text:?}"))
+        .to_owned();
+    Served { child, addr }
 }
