@@ -199,7 +199,7 @@ fn a_session_is_committed_at_every_step_and_marked_until_it_ends() {
     let (runs, row) = runs_row(dir.path(), 0);
     assert_eq!(value(&runs, "finished", row), Value::Bool(true));
     let series = dataset::read_dataset(dir.path(), "series").unwrap();
-    assert!(series.len() > 0, "the checkpoints reached are written");
+    assert!(!series.is_empty(), "the checkpoints reached are written");
     // No temporary file is left among the parts.
     assert!(common::temporaries(dir.path()).is_empty());
 }
