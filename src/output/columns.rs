@@ -59,6 +59,11 @@ const DOCS: &[(&str, &str, &str)] = &[
     ("terminal", "the arrival ended an episode or trial (no future term for MF)", ""),
     ("actor", "who chose the action: mf or mb (that expert's softmax), mix (a mixture: combine = mix, or a vpi decision with an action valued by MB), human (a takeover), reset (a reset step)", ""),
     ("p_mb", "P(MB) of the step's decision; null without a decision (takeover, reset step)", "probability"),
+    ("participant", "mbmf teach: the person's pseudonym (given, or drawn at random)", ""),
+    ("session", "mbmf teach: the session's random id", ""),
+    ("finished", "mbmf teach: the session ended (the person finished, or every step was taken); false while it runs, or after a closed tab or a killed server", ""),
+    ("shown_at", "mbmf teach: when the step was shown to the person, from the session's start", "s"),
+    ("clicked_at", "mbmf teach: when the person's click that acted on the step came (its feedback, or the takeover that made it), from the session's start; null without one", "s"),
     ("human_event", "what the human did: none, congratulation, punishment, takeover, nuisance, reward (a reward given with another interaction in one step shows as that interaction)", ""),
 ];
 
