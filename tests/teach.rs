@@ -379,3 +379,69 @@ fn the_server_listens_on_loopback_serves_its_page_and_refuses_other_origins() {
     // No session was started by the refused socket.
     assert!(!sessions.join("runs").exists() || common::parts(&sessions, "runs").is_empty());
 }
+
+/// Reads one server frame (unmasked, as servers send) from a WebSocket: its text.
+fn read_frame(s: &mut TcpStream) -> String {
+    let mut head = [0u8; 2];
+    s.read_exact(&mut head).unwrap();
+    let mut len = u64::from(head[1] & 0x7f);
+    if len == 126 {
+        let mut ext = [0u8; 2];
+        s.read_exact(&mut ext).unwrap();
+        len = u64::from(u16::from_be_bytes(ext));
+    } else if len == 127 {
+        let mut ext = [0u8; 8];
+        s.read_exact(&mut ext).unwrap();
+        len = u64::from_be_bytes(ext);
+    }
+    let mut body = vec![0u8; len as usize];
+    s.read_exact(&mut body).unwrap();
+    String::from_utf8_lossy(&body).into_owned()
+}
+
+#[test]
+fn a_killed_server_loses_at_most_the_step_in_progress() {
+    let dir = tempfile::tempdir().unwrap();
+    let sessions = dir.path().join("s");
+    let mut served = serve(&[
+        "teach",
+        "--sessions",
+        sessions.to_str().unwrap(),
+        "--pace-ms",
+        "100",
+    ]);
+    // A client that shakes hands, then only listens: the session steps at its pace.
+    let mut ws = TcpStream::connect(&served.addr).unwrap();
+    ws.set_read_timeout(Some(Duration::from_secs(20))).unwrap();
+    write!(
+        ws,
+        "GET /ws HTTP/1.1\r\nHost: {}\r\nConnection: Upgrade\r\nUpgrade: websocket\r\n\
+         Sec-WebSocket-Version: 13\r\nSec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\n\r\n",
+        served.addr
+    )
+    .unwrap();
+    let mut response = Vec::new();
+    while !response.ends_with(b"\r\n\r\n") {
+        let mut b = [0u8; 1];
+        ws.read_exact(&mut b).unwrap();
+        response.push(b[0]);
+    }
+    assert!(String::from_utf8_lossy(&response).starts_with("HTTP/1.1 101"));
+    let mut last_seen = 0;
+    while last_seen < 15 {
+        let message: serde_json::Value = serde_json::from_str(&read_frame(&mut ws)).unwrap();
+        if message["type"] == "step" {
+            last_seen = message["step"].as_u64().unwrap();
+        }
+    }
+    // SIGKILL: no handler runs, nothing is flushed on the way out.
+    served.kill();
+    let rows = trace_of(&sessions, 0);
+    assert!(
+        rows.len() as u64 >= last_seen && rows.len() as u64 <= last_seen + 1,
+        "{} steps kept, {last_seen} shown",
+        rows.len()
+    );
+    let (runs, row) = runs_row(&sessions, 0);
+    assert_eq!(value(&runs, "finished", row), Value::Bool(false));
+}
