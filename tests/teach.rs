@@ -298,6 +298,22 @@ fn a_person_is_refused_outside_teach_and_teach_refuses_a_simulated_human() {
         assert!(err.contains(names), "{flags:?}: {err}");
     }
     assert!(!out.exists(), "a refused teach leaves no folder");
+    // Sessions never go into another kind of dataset.
+    run_ok(&[
+        "run",
+        "--controller",
+        "ec",
+        "--runs",
+        "1",
+        "--steps",
+        "10",
+        "--out",
+        o,
+        "--quiet",
+    ]);
+    let r = run(&["teach", "--port", "0", "--sessions", o]);
+    assert_eq!(r.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&r.stderr).contains("not sessions"));
 }
 
 #[test]

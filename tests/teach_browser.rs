@@ -33,6 +33,36 @@ fn browser_python() -> Option<PathBuf> {
     common::venv_python("MBMF_BROWSER_PYTHON", ".venv", "selenium")
 }
 
+/// A browser test's set-up: the browser's lock (or `None`: skip), a `mbmf teach` server on a
+/// fresh sessions folder with `args`, and its URL.
+struct Teaching {
+    _one: std::sync::MutexGuard<'static, ()>,
+    py: PathBuf,
+    _dir: tempfile::TempDir,
+    sessions: PathBuf,
+    served: common::Served,
+    url: String,
+}
+
+fn teaching(args: &[&str]) -> Option<Teaching> {
+    let one = ONE_AT_A_TIME.lock().unwrap_or_else(|p| p.into_inner());
+    let py = browser_python()?;
+    let dir = tempfile::tempdir().unwrap();
+    let sessions = dir.path().join("sessions");
+    let mut all = vec!["teach", "--sessions", sessions.to_str().unwrap()];
+    all.extend_from_slice(args);
+    let served = common::serve(&all);
+    let url = format!("http://{}/", served.addr);
+    Some(Teaching {
+        _one: one,
+        py,
+        _dir: dir,
+        sessions,
+        served,
+        url,
+    })
+}
+
 /// Runs a scenario of the Selenium driver; its JSON result.
 fn scenario(py: &Path, args: &[&str]) -> Json {
     let out = Command::new(py)
@@ -148,24 +178,20 @@ fn a_person_congratulates_punishes_takes_over_and_closes_the_tab() {
 
 #[test]
 fn two_people_teach_at_once_in_sessions_of_their_own() {
-    let _one = ONE_AT_A_TIME.lock().unwrap_or_else(|p| p.into_inner());
-    let Some(py) = browser_python() else { return };
-    let dir = tempfile::tempdir().unwrap();
-    let sessions = dir.path().join("sessions");
-    let served = common::serve(&["teach", "--sessions", sessions.to_str().unwrap()]);
-    let url = format!("http://{}/", served.addr);
-    let got = scenario(&py, &["two", &url, &url]);
+    let Some(t) = teaching(&[]) else { return };
+    let (py, sessions, url) = (&t.py, &t.sessions, &t.url);
+    let got = scenario(py, &["two", url, url]);
     let (a, b) = (&got["first"], &got["second"]);
     assert_ne!(a["participant"], b["participant"], "{got}");
     std::thread::sleep(std::time::Duration::from_millis(500));
-    let runs = dataset::read_runs(&sessions).unwrap();
+    let runs = dataset::read_runs(sessions).unwrap();
     assert_eq!(runs.len(), 2);
     let participants: Vec<Value> = (0..2)
         .map(|i| runs.column("participant").unwrap().value(i))
         .collect();
     assert_ne!(participants[0], participants[1]);
     for r in [0, 1] {
-        let rows = trace(&sessions, r);
+        let rows = trace(sessions, r);
         assert!(!rows.is_empty());
         assert_eq!(rows.iter().filter(|x| x.2 == "congratulation").count(), 1);
     }
@@ -173,22 +199,17 @@ fn two_people_teach_at_once_in_sessions_of_their_own() {
 
 #[test]
 fn hostile_messages_close_their_own_socket_and_leave_a_session_running() {
-    let _one = ONE_AT_A_TIME.lock().unwrap_or_else(|p| p.into_inner());
-    let Some(py) = browser_python() else { return };
-    let dir = tempfile::tempdir().unwrap();
-    let sessions = dir.path().join("sessions");
-    let served = common::serve(&["teach", "--sessions", sessions.to_str().unwrap()]);
-    let url = format!("http://{}/", served.addr);
-    let got = scenario(&py, &["hostile", &url]);
+    let Some(t) = teaching(&[]) else { return };
+    let got = scenario(&t.py, &["hostile", &t.url]);
     assert!(
         got["step_after"].as_u64() > got["step_before"].as_u64(),
         "{got}"
     );
     // The person's session (run 0) has their congratulation; the server still serves.
-    let rows = trace(&sessions, 0);
+    let rows = trace(&t.sessions, 0);
     let at = steps(&got["congratulated"]);
     assert_eq!(rows[at[0] as usize - 1].2, "congratulation");
-    let page = std::net::TcpStream::connect(&served.addr);
+    let page = std::net::TcpStream::connect(&t.served.addr);
     assert!(page.is_ok(), "the server is still up");
 }
 

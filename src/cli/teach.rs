@@ -135,6 +135,7 @@ pub fn teach(args: &TeachArgs) -> Result<(), Failure> {
              person's name)"
         )));
     }
+    session::check_folder(&args.sessions).map_err(usage)?;
     let consent = match &args.consent {
         Some(path) => {
             let text = std::fs::read_to_string(path)

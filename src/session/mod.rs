@@ -44,13 +44,44 @@ pub enum SessionError {
     /// A table could not be written.
     #[error(transparent)]
     Output(#[from] OutputError),
+    /// The folder holds another kind of dataset, which sessions would corrupt.
+    #[error(
+        "{path} holds {what}, not sessions: give --sessions a folder of its own (sessions add \
+         part files to runs/, series/ and trace/)"
+    )]
+    NotSessions {
+        /// The folder.
+        path: PathBuf,
+        /// What it holds.
+        what: &'static str,
+    },
 }
 
 impl SessionError {
     /// Whether the request was wrong (exit code 2), rather than the machine (1).
     pub fn is_usage(&self) -> bool {
-        matches!(self, SessionError::Config(_))
+        matches!(
+            self,
+            SessionError::Config(_) | SessionError::NotSessions { .. }
+        )
     }
+}
+
+/// Checks that `dir` is a sessions folder, or can become one: not the output of `mbmf run` or
+/// `mbmf sweep`, whose datasets part files of sessions would corrupt.
+pub fn check_folder(dir: &Path) -> Result<(), SessionError> {
+    for (file, what) in [
+        ("sweep.toml", "a sweep's dataset"),
+        ("runs.parquet", "the output of mbmf run"),
+    ] {
+        if dir.join(file).exists() {
+            return Err(SessionError::NotSessions {
+                path: dir.to_path_buf(),
+                what,
+            });
+        }
+    }
+    Ok(())
 }
 
 /// What a session is: the robot, its task, who teaches it.
@@ -121,6 +152,7 @@ impl Session {
     /// Starts a session in the sessions folder `dir`: claims the next run index, builds the
     /// run (babbling done), and commits its empty tables so the session is visible at once.
     pub fn start(dir: &Path, teaching: Teaching) -> Result<Session, SessionError> {
+        check_folder(dir)?;
         let mut params = teaching.params;
         params.human.interaction = Interaction::Person;
         let claims = dir.join(CLAIMS_DIR);
