@@ -24,7 +24,7 @@ fn softmax_and_entropy(c: &mut Criterion) {
     for n_a in [7usize, 8] {
         let mut rng = run_rng(common::SEED, n_a as u64);
         let q: Vec<f64> = (0..ROWS * n_a).map(|_| uniform(&mut rng)).collect();
-        let g: Vec<i8> = (0..ROWS * n_a).map(|i| i8::from(i % 5 == 0)).collect();
+        let g: Vec<u8> = (0..ROWS * n_a).map(|i| u8::from(i % 5 == 0)).collect();
         let mut p = vec![0.0; ROWS * n_a];
         for ((q, g), p) in q.chunks(n_a).zip(g.chunks(n_a)).zip(p.chunks_mut(n_a)) {
             softmax_biased(q, g, 0.1, 0.02, p);

@@ -101,7 +101,7 @@ impl Encounter<'_> {
     /// is wrong with probability e; a wrong judgment gives feedback to an action that does not
     /// merit it (and spends budget, as any interaction) or withholds it from one that does.
     #[inline]
-    pub fn feedback(&mut self, sa: usize) -> i8 {
+    pub fn feedback(&mut self, sa: usize) -> u8 {
         if *self.budget_left == 0 {
             return 0;
         }
@@ -128,7 +128,7 @@ impl Encounter<'_> {
                 }
             },
         );
-        i8::from(given)
+        u8::from(given)
     }
 
     /// SPEC 11.2 after the robot's relevant action `sa`: the state an attentive nuisance human
@@ -185,7 +185,8 @@ pub fn judges(merits: bool, error_prob: f64, u: f64) -> bool {
 
 /// The weight of G(s, a) in the experts' softmax (Eq. 8): +zeta for congratulation, -zeta for
 /// punishment, 0 otherwise, and 0 for a congratulation that shapes the reward instead (11.3).
-/// A person's G is +1 (congratulation) or -1 (punishment), weighted by +zeta.
+/// A person's G is +1 (congratulation) or -1 (punishment, stored as
+/// [`crate::expert::PUNISHED`]), weighted by +zeta.
 #[inline]
 pub fn bonus_weight(human: &HumanParams, effect: CongratulationEffect) -> f64 {
     match human.interaction {
@@ -214,7 +215,7 @@ mod tests {
 
     /// The outcome of one feedback opportunity on pair `sa`: G, the budget left, the counters
     /// and the draws taken from a stream seeded with `seed`.
-    fn feedback(human: HumanParams, sa: usize, seed: u64) -> (i8, u32, RunStats, usize) {
+    fn feedback(human: HumanParams, sa: usize, seed: u64) -> (u8, u32, RunStats, usize) {
         let tables = tables();
         let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed);
         let start = rng.clone();
@@ -316,7 +317,7 @@ mod tests {
                     assert_eq!((stats.forgotten, draws), (0, 2), "seed {seed}");
                     1 + usize::from(wrong)
                 };
-                assert_eq!(left, 5 - u32::from(g == 1), "seed {seed}");
+                assert_eq!(left, 5 - u32::from(g), "seed {seed}");
                 seen[case][sa] += 1;
             }
         }

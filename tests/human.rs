@@ -32,7 +32,7 @@ struct Solo {
     cost_mf: Vec<f64>,
     cost_mb: Vec<f64>,
     visited: Vec<bool>,
-    bonus: Vec<i8>,
+    bonus: Vec<u8>,
     model: OwnedModel,
     scratch: Vec<f64>,
     rng: Xoshiro256PlusPlus,

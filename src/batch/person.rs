@@ -141,7 +141,7 @@ impl Batch {
             HumanEvent::Punishment
         };
         let (_, view) = self.views().swap_remove(r);
-        view.bonus[sa] = if positive { 1 } else { -1 };
+        view.bonus[sa] = if positive { 1 } else { crate::expert::PUNISHED };
         crate::human::spend(&mut view.cursor.budget_left, view.stats, step, |s| {
             if positive {
                 s.congratulations += 1;

@@ -3,7 +3,7 @@
 //! owns both their invalidation and the fold they let a decision skip. Without a human the
 //! softmax of an expert depends only on its Q row (the bonus term is 0, the temperature fixed).
 
-use crate::expert::{ema_into, softmax_biased};
+use crate::expert::{ema_into, softmax_biased, softmax_signed};
 
 /// One of the two experts, naming its half of the [`Settled`] flags.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -45,7 +45,9 @@ pub struct Fold<'a> {
     /// The expert's Q row in the state.
     pub q: &'a [f64],
     /// G(s, .) of Eq. 8.
-    pub g: &'a [i8],
+    pub g: &'a [u8],
+    /// G is read as signed (a person's run: [`crate::expert::softmax_signed`]).
+    pub signed: bool,
     /// The weight of G in the softmax.
     pub bonus: f64,
     /// The softmax temperature.
@@ -85,7 +87,11 @@ impl Settled {
         let unchanged = self.0 & both == both;
         let fresh = fold.kept && self.0 & softmax != 0;
         if !fresh && (fold.drawn || !unchanged) {
-            softmax_biased(fold.q, fold.g, fold.bonus, fold.tau, p);
+            if fold.signed {
+                softmax_signed(fold.q, fold.g, fold.bonus, fold.tau, p);
+            } else {
+                softmax_biased(fold.q, fold.g, fold.bonus, fold.tau, p);
+            }
         }
         if unchanged {
             return false;
@@ -103,7 +109,7 @@ impl Settled {
 mod tests {
     use super::*;
 
-    const G: [i8; 3] = [0; 3];
+    const G: [u8; 3] = [0; 3];
 
     /// One state's MF softmax buffer, averaged distribution, flags and kept entropy.
     struct State {
@@ -122,6 +128,7 @@ mod tests {
                 kept,
                 q,
                 g: &G,
+                signed: false,
                 bonus: 0.0,
                 tau: 0.5,
                 alpha: 0.6,

@@ -19,7 +19,9 @@ use super::{Checkpoint, RunView, Settled, initial_state, uniform};
 use crate::arbiter::{self, Arbiter, Draw, Inputs, Mixed, Own, Transition, Visit};
 use crate::env::{End, Spec};
 use crate::expert::mf::Eligibility;
-use crate::expert::{draw, ema, entropy_bits, max_of, mf, normalise_bits, softmax_biased};
+use crate::expert::{
+    draw, ema, entropy_bits, max_of, mf, normalise_bits, softmax_biased, softmax_signed,
+};
 use crate::human::{self, Encounter};
 use crate::params::{
     Combine, CongratulationEffect, CostModel, HumanParams, Interaction, Params, RewardSource,
@@ -612,6 +614,8 @@ fn decide<A: Arbiter, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
         &mut run.settled[s]
     };
     let g = &run.bonus[row.clone()];
+    // A person's G may be -1 (a punishment): read signed, in their runs only.
+    let signed = HUMAN && run.cursor.human.interaction == Interaction::Person;
     let (tau, alpha) = (params.tau, params.filter_alpha);
     if A::RUNS_MF {
         let fold = Fold {
@@ -620,6 +624,7 @@ fn decide<A: Arbiter, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
             kept: keeps_softmax,
             q: &run.q_mf[row.clone()],
             g,
+            signed,
             bonus,
             tau,
             alpha,
@@ -638,6 +643,7 @@ fn decide<A: Arbiter, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
             kept: false,
             q: &run.q_mb[row.clone()],
             g,
+            signed,
             bonus,
             tau,
             alpha,
@@ -668,7 +674,11 @@ fn decide<A: Arbiter, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
             };
             A::action_values(&own, s, q_mf, q_mb, values);
         }
-        softmax_biased(values, g, bonus, tau, p);
+        if signed {
+            softmax_signed(values, g, bonus, tau, p);
+        } else {
+            softmax_biased(values, g, bonus, tau, p);
+        }
         choice.chosen_entropy = normalise_bits(entropy_bits(p), n_a);
         draw(p, uniform(run.rng))
     };

@@ -263,7 +263,7 @@ tables! {
         /// Per state: the robot has decided there before (first-decision rule, SPEC 4).
         visited: bool [z.states] = false;
         /// G(s, a) of Eq. 8, `[state, action]`.
-        bonus: i8 [z.states * z.actions] = 0;
+        bonus: u8 [z.states * z.actions] = 0;
         /// The arbitration rule's per-run scalars ([`crate::arbiter::Own::run`]).
         arbiter_run: f64 [z.arbiter_scalars] = 0.0;
         /// The arbitration rule's per-run `[state, action]` tables ([`crate::arbiter::Own::pairs`]).

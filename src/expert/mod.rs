@@ -9,7 +9,32 @@ pub mod mf;
 ///
 /// The maximum is subtracted first so no `exp` overflows, whatever the values and `tau`.
 #[inline]
-pub fn softmax_biased(q: &[f64], g: &[i8], bonus: f64, tau: f64, out: &mut [f64]) {
+pub fn softmax_biased(q: &[f64], g: &[u8], bonus: f64, tau: f64, out: &mut [f64]) {
+    softmax_graded(q, g, bonus, tau, out, f64::from);
+}
+
+/// G(s, a) of a real person's punishment: -1 when read by [`softmax_signed`] (the simulated
+/// humans' G is 0 or 1, kept unsigned because the unsigned conversion is the cheaper one in the
+/// hot loop).
+pub const PUNISHED: u8 = (-1i8).cast_unsigned();
+
+/// [`softmax_biased`] with G read as signed (+1, 0, or -1 stored as [`PUNISHED`]): a person
+/// both congratulates and punishes, with one weight.
+#[inline]
+pub fn softmax_signed(q: &[f64], g: &[u8], bonus: f64, tau: f64, out: &mut [f64]) {
+    softmax_graded(q, g, bonus, tau, out, |g| f64::from(g.cast_signed()));
+}
+
+/// The softmax of Eqs. 3 and 8 with G(s, a) read by `grade`.
+#[inline(always)]
+fn softmax_graded(
+    q: &[f64],
+    g: &[u8],
+    bonus: f64,
+    tau: f64,
+    out: &mut [f64],
+    grade: impl Fn(u8) -> f64,
+) {
     debug_assert!(q.len() == g.len() && q.len() == out.len());
     // Equal lengths up front, so the loops below carry no bounds checks and the element-wise
     // ones vectorise.
@@ -17,7 +42,7 @@ pub fn softmax_biased(q: &[f64], g: &[i8], bonus: f64, tau: f64, out: &mut [f64]
     let (q, g) = (&q[..n], &g[..n]);
     let mut max = f64::NEG_INFINITY;
     for i in 0..n {
-        let biased = q[i] + bonus * f64::from(g[i]);
+        let biased = q[i] + bonus * grade(g[i]);
         out[i] = biased;
         max = max.max(biased);
     }
