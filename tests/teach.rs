@@ -321,7 +321,7 @@ fn view_refuses_a_run_without_a_trace_or_that_is_not_there() {
     let dir = tempfile::tempdir().unwrap();
     let o = dir.path().join("r");
     let o = o.to_str().unwrap();
-    run_ok(&[
+    let small = [
         "run",
         "--controller",
         "ec",
@@ -329,27 +329,13 @@ fn view_refuses_a_run_without_a_trace_or_that_is_not_there() {
         "2",
         "--steps",
         "30",
-        "--out",
-        o,
         "--quiet",
-    ]);
+    ];
+    run_ok(&[&small[..], &["--out", o]].concat());
     let r = run(&["view", o, "--run", "0", "--port", "0"]);
     assert_eq!(r.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&r.stderr).contains("trace"));
-    run_ok(&[
-        "run",
-        "--controller",
-        "ec",
-        "--runs",
-        "2",
-        "--steps",
-        "30",
-        "--out",
-        o,
-        "--quiet",
-        "--trace",
-        "--force",
-    ]);
+    run_ok(&[&small[..], &["--out", o, "--trace", "--force"]].concat());
     let r = run(&["view", o, "--run", "9", "--port", "0"]);
     assert_eq!(r.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&r.stderr).contains("--run 9"));

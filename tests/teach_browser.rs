@@ -111,32 +111,17 @@ fn steps(v: &Json) -> Vec<u64> {
 
 #[test]
 fn a_person_congratulates_punishes_takes_over_and_closes_the_tab() {
-    let _one = ONE_AT_A_TIME.lock().unwrap_or_else(|p| p.into_inner());
-    let Some(py) = browser_python() else { return };
-    let dir = tempfile::tempdir().unwrap();
-    let sessions = dir.path().join("sessions");
-    let consent = dir.path().join("consent.txt");
-    std::fs::write(
-        &consent,
-        "You will teach a robot to tidy cubes. Nothing about you is kept.",
-    )
-    .unwrap();
-    let served = common::serve(&[
-        "teach",
-        "--sessions",
-        sessions.to_str().unwrap(),
-        "--consent",
-        consent.to_str().unwrap(),
-        "--budget",
-        "50",
-        "--pace-ms",
-        "200",
-    ]);
-    let url = format!("http://{}/", served.addr);
-    let got = scenario(&py, &["teach", &url]);
+    let consent_dir = tempfile::tempdir().unwrap();
+    let consent = consent_dir.path().join("consent.txt");
+    let text = "You will teach a robot to tidy cubes. Nothing about you is kept.";
+    std::fs::write(&consent, text).unwrap();
+    let consent = consent.to_str().unwrap();
+    let args = ["--consent", consent, "--budget", "50", "--pace-ms", "200"];
+    let Some(t) = teaching(&args) else { return };
+    let (sessions, got) = (&t.sessions, scenario(&t.py, &["teach", &t.url]));
     // The tab is closed: the session is kept, unfinished, with every step it showed.
     std::thread::sleep(std::time::Duration::from_millis(500));
-    let rows = trace(&sessions, 0);
+    let rows = trace(sessions, 0);
     let seen = got["last_step_seen"].as_u64().unwrap();
     assert!(
         rows.len() as u64 >= seen,
@@ -166,7 +151,7 @@ fn a_person_congratulates_punishes_takes_over_and_closes_the_tab() {
         3,
         "nothing else was given"
     );
-    let runs = dataset::read_runs(&sessions).unwrap();
+    let runs = dataset::read_runs(sessions).unwrap();
     let v = |name: &str| runs.column(name).unwrap().value(0);
     assert_eq!(v("finished"), Value::Bool(false));
     assert_eq!(v("interactions").as_f64(), Some(3.0));
