@@ -3,7 +3,7 @@
 //! owns both their invalidation and the fold they let a decision skip. Without a human the
 //! softmax of an expert depends only on its Q row (the bonus term is 0, the temperature fixed).
 
-use crate::expert::{ema_into, softmax_biased, softmax_signed};
+use crate::expert::{ema_into, softmax_graded_by};
 
 /// One of the two experts, naming its half of the [`Settled`] flags.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -46,7 +46,7 @@ pub struct Fold<'a> {
     pub q: &'a [f64],
     /// G(s, .) of Eq. 8.
     pub g: &'a [u8],
-    /// G is read as signed (a person's run: [`crate::expert::softmax_signed`]).
+    /// G is read as signed (a person's run: [`crate::expert::softmax_graded_by`]).
     pub signed: bool,
     /// The weight of G in the softmax.
     pub bonus: f64,
@@ -87,11 +87,7 @@ impl Settled {
         let unchanged = self.0 & both == both;
         let fresh = fold.kept && self.0 & softmax != 0;
         if !fresh && (fold.drawn || !unchanged) {
-            if fold.signed {
-                softmax_signed(fold.q, fold.g, fold.bonus, fold.tau, p);
-            } else {
-                softmax_biased(fold.q, fold.g, fold.bonus, fold.tau, p);
-            }
+            softmax_graded_by(fold.signed, fold.q, fold.g, fold.bonus, fold.tau, p);
         }
         if unchanged {
             return false;
@@ -140,7 +136,7 @@ mod tests {
 
     fn softmax(q: &[f64; 3]) -> [f64; 3] {
         let mut p = [0.0; 3];
-        softmax_biased(q, &G, 0.0, 0.5, &mut p);
+        crate::expert::softmax_biased(q, &G, 0.0, 0.5, &mut p);
         p
     }
 

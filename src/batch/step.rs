@@ -19,9 +19,7 @@ use super::{Checkpoint, RunView, Settled, initial_state, uniform};
 use crate::arbiter::{self, Arbiter, Draw, Inputs, Mixed, Own, Transition, Visit};
 use crate::env::{End, Spec};
 use crate::expert::mf::Eligibility;
-use crate::expert::{
-    draw, ema, entropy_bits, max_of, mf, normalise_bits, softmax_biased, softmax_signed,
-};
+use crate::expert::{draw, ema, entropy_bits, max_of, mf, normalise_bits, softmax_graded_by};
 use crate::human::{self, Encounter};
 use crate::params::{
     Combine, CongratulationEffect, CostModel, HumanParams, Interaction, Params, RewardSource,
@@ -674,11 +672,7 @@ fn decide<A: Arbiter, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
             };
             A::action_values(&own, s, q_mf, q_mb, values);
         }
-        if signed {
-            softmax_signed(values, g, bonus, tau, p);
-        } else {
-            softmax_biased(values, g, bonus, tau, p);
-        }
+        softmax_graded_by(signed, values, g, bonus, tau, p);
         choice.chosen_entropy = normalise_bits(entropy_bits(p), n_a);
         draw(p, uniform(run.rng))
     };

@@ -15,14 +15,18 @@ pub fn softmax_biased(q: &[f64], g: &[u8], bonus: f64, tau: f64, out: &mut [f64]
 
 /// G(s, a) of a real person's punishment: -1 when read by [`softmax_signed`] (the simulated
 /// humans' G is 0 or 1, kept unsigned because the unsigned conversion is the cheaper one in the
-/// hot loop).
+/// hot loop; [`softmax_graded_by`] reads it signed).
 pub const PUNISHED: u8 = (-1i8).cast_unsigned();
 
-/// [`softmax_biased`] with G read as signed (+1, 0, or -1 stored as [`PUNISHED`]): a person
-/// both congratulates and punishes, with one weight.
+/// [`softmax_biased`], with G read as signed (+1, 0, or -1 stored as [`PUNISHED`]) when
+/// `signed`: a person both congratulates and punishes, with one weight.
 #[inline]
-pub fn softmax_signed(q: &[f64], g: &[u8], bonus: f64, tau: f64, out: &mut [f64]) {
-    softmax_graded(q, g, bonus, tau, out, |g| f64::from(g.cast_signed()));
+pub fn softmax_graded_by(signed: bool, q: &[f64], g: &[u8], bonus: f64, tau: f64, out: &mut [f64]) {
+    if signed {
+        softmax_graded(q, g, bonus, tau, out, |g| f64::from(g.cast_signed()));
+    } else {
+        softmax_biased(q, g, bonus, tau, out);
+    }
 }
 
 /// The softmax of Eqs. 3 and 8 with G(s, a) read by `grade`.
@@ -211,6 +215,23 @@ mod tests {
         softmax_biased(&[0.0, 0.1], &[0, 0], 0.1, 0.1, &mut out);
         let e = 1f64.exp();
         assert!((out[1] - e / (1.0 + e)).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_persons_punishment_is_read_as_minus_one_only_when_signed() {
+        // q = (0.1, 0), a punishment on action 0 with weight 0.1, tau 0.1: both biased values
+        // are 0, so p = (0.5, 0.5).
+        let mut out = [0.0; 2];
+        softmax_graded_by(true, &[0.1, 0.0], &[PUNISHED, 0], 0.1, 0.1, &mut out);
+        assert!((out[0] - 0.5).abs() < 1e-12 && (out[1] - 0.5).abs() < 1e-12);
+        // Unsigned, the same byte is 255: action 0 takes all the mass.
+        softmax_graded_by(false, &[0.1, 0.0], &[PUNISHED, 0], 0.1, 0.1, &mut out);
+        assert!(out[0] > 1.0 - 1e-12);
+        // A congratulation reads +1 either way.
+        let mut signed = [0.0; 2];
+        softmax_graded_by(true, &[0.0, 0.1], &[1, 0], 0.1, 0.1, &mut signed);
+        softmax_graded_by(false, &[0.0, 0.1], &[1, 0], 0.1, 0.1, &mut out);
+        assert_eq!(signed, out);
     }
 
     #[test]
