@@ -9,22 +9,20 @@
 pub mod atomic;
 pub mod columns;
 pub mod provenance;
+mod sink;
 
 pub use provenance::{Context, provenance};
+pub use sink::{ParquetSink, write_parquet};
 
-use std::fs::File;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::sync::Arc;
 
 use arrow::array::{
     ArrayRef, BooleanArray, Float64Array, Int64Array, RecordBatch, StringArray, UInt64Array,
 };
-use arrow::datatypes::{DataType, Field, Schema, SchemaRef};
-use parquet::arrow::ArrowWriter;
-use parquet::basic::{Compression, ZstdLevel};
-use parquet::file::metadata::KeyValue;
-use parquet::file::properties::WriterProperties;
-use parquet::schema::types::ColumnPath;
+use arrow::datatypes::{DataType, Field, Schema};
+
+use rayon::prelude::*;
 
 use crate::batch::{Batch, RunConfig};
 use crate::params::{Kind, PARAMS, Value};
@@ -166,27 +164,38 @@ fn run_param_columns(
     cols.push("master_seed", false, Arc::new(UInt64Array::from(seeds)));
     let rows = counts.map_or(c.len(), |n| n.iter().sum());
     cols.str("task", std::iter::repeat_n(task, rows));
-    for p in PARAMS {
-        let values = c.iter().map(|r| (p.get)(&r.params));
-        match p.kind {
-            Kind::Real => {
-                let v = repeated(values.map(|v| v.as_f64().unwrap_or(f64::NAN)), counts);
-                cols.push(p.name, false, Arc::new(Float64Array::from(v)));
+    // One column per parameter, built side by side: a series table repeats each of them on
+    // every checkpoint row, the largest part of building it.
+    let params: Vec<Columns> = PARAMS
+        .par_iter()
+        .map(|p| {
+            let mut one = Columns::default();
+            let values = c.iter().map(|r| (p.get)(&r.params));
+            match p.kind {
+                Kind::Real => {
+                    let v = repeated(values.map(|v| v.as_f64().unwrap_or(f64::NAN)), counts);
+                    one.push(p.name, false, Arc::new(Float64Array::from(v)));
+                }
+                Kind::Count => {
+                    let v = values.map(|v| signed(v.as_count().unwrap_or(0)));
+                    one.push_int(p.name, repeated(v, counts));
+                }
+                Kind::Switch => {
+                    let v = repeated(values.map(|v| v == Value::Switch(true)), counts);
+                    one.bool(p.name, v.into_iter());
+                }
+                _ => {
+                    let names: Vec<Value> = values.collect();
+                    let names = names.iter().map(|v| v.as_str().unwrap_or(""));
+                    one.str(p.name, repeated(names, counts).into_iter());
+                }
             }
-            Kind::Count => {
-                let v = values.map(|v| signed(v.as_count().unwrap_or(0)));
-                cols.push_int(p.name, repeated(v, counts));
-            }
-            Kind::Switch => {
-                let v = repeated(values.map(|v| v == Value::Switch(true)), counts);
-                cols.bool(p.name, v.into_iter());
-            }
-            _ => {
-                let names: Vec<Value> = values.collect();
-                let names = names.iter().map(|v| v.as_str().unwrap_or(""));
-                cols.str(p.name, repeated(names, counts).into_iter());
-            }
-        }
+            one
+        })
+        .collect();
+    for one in params {
+        cols.fields.extend(one.fields);
+        cols.arrays.extend(one.arrays);
     }
 }
 
@@ -388,133 +397,6 @@ pub fn trace_batch(batch: &Batch) -> Result<RecordBatch, OutputError> {
         )?,
     );
     cols.finish()
-}
-
-/// A Parquet file being written under a temporary name, renamed into place by [`finish`].
-///
-/// [`finish`]: ParquetSink::finish
-pub struct ParquetSink {
-    path: PathBuf,
-    tmp: PathBuf,
-    writer: Option<ArrowWriter<File>>,
-    metadata: Vec<(String, String)>,
-}
-
-impl ParquetSink {
-    /// Prepares to write `path`; `metadata` goes into the file's key-value metadata.
-    pub fn new(path: &Path, metadata: Vec<(String, String)>) -> ParquetSink {
-        let name = path
-            .file_name()
-            .map(|n| n.to_string_lossy().into_owned())
-            .unwrap_or_default();
-        let tmp = path.with_file_name(format!(".{name}.tmp-{}", std::process::id()));
-        ParquetSink {
-            path: path.to_path_buf(),
-            tmp,
-            writer: None,
-            metadata,
-        }
-    }
-
-    /// The key-value metadata the file gets.
-    pub fn metadata(&self) -> &[(String, String)] {
-        &self.metadata
-    }
-
-    /// Appends a record batch (the first one fixes the schema).
-    pub fn write(&mut self, batch: &RecordBatch) -> Result<(), OutputError> {
-        if self.writer.is_none() {
-            let file = File::create(&self.tmp).map_err(|source| OutputError::Io {
-                path: self.tmp.clone(),
-                source,
-            })?;
-            let kv = self
-                .metadata
-                .iter()
-                .map(|(k, v)| KeyValue::new(k.clone(), v.clone()))
-                .collect();
-            // zstd level 3 (parquet-rs's default level): about half snappy's size for these
-            // repetitive parameter columns at a similar write speed.
-            let mut props = WriterProperties::builder()
-                .set_compression(Compression::ZSTD(ZstdLevel::default()))
-                .set_key_value_metadata(Some(kv));
-            // The parameter columns repeat a run's configuration on each of its rows: plain
-            // pages that zstd shrinks as well as a dictionary would, without hashing every value
-            // into one (most of the cost of writing them).
-            for field in batch.schema().fields() {
-                if is_repeated_column(field.name()) {
-                    let column = ColumnPath::from(field.name().as_str());
-                    props = props.set_column_dictionary_enabled(column, false);
-                }
-            }
-            let props = props.build();
-            let schema: SchemaRef = batch.schema();
-            let writer = ArrowWriter::try_new(file, schema, Some(props)).map_err(|source| {
-                OutputError::Parquet {
-                    path: self.path.clone(),
-                    source,
-                }
-            })?;
-            self.writer = Some(writer);
-        }
-        let writer = self.writer.as_mut().expect("created above");
-        writer.write(batch).map_err(|source| OutputError::Parquet {
-            path: self.path.clone(),
-            source,
-        })
-    }
-
-    /// Flushes, syncs and renames the file into place. Returns its final path. On failure the
-    /// temporary file is removed, so nothing partial is left behind.
-    pub fn finish(mut self) -> Result<PathBuf, OutputError> {
-        let writer = self.writer.take().expect("finish after at least one write");
-        let result = self.close(writer);
-        if result.is_err() {
-            let _ = std::fs::remove_file(&self.tmp);
-        }
-        result
-    }
-
-    fn close(&self, mut writer: ArrowWriter<File>) -> Result<PathBuf, OutputError> {
-        writer.append_key_value_metadata(KeyValue::new(
-            provenance::ENDED_KEY.to_string(),
-            provenance::utc(std::time::SystemTime::now()),
-        ));
-        let file = writer.into_inner().map_err(|source| OutputError::Parquet {
-            path: self.path.clone(),
-            source,
-        })?;
-        file.sync_all().map_err(|source| OutputError::Io {
-            path: self.tmp.clone(),
-            source,
-        })?;
-        drop(file);
-        std::fs::rename(&self.tmp, &self.path).map_err(|source| OutputError::Io {
-            path: self.path.clone(),
-            source,
-        })?;
-        Ok(self.path.clone())
-    }
-}
-
-impl Drop for ParquetSink {
-    fn drop(&mut self) {
-        // An unfinished sink (error or panic) removes its temporary file.
-        if self.writer.is_some() {
-            let _ = std::fs::remove_file(&self.tmp);
-        }
-    }
-}
-
-/// Writes one record batch to `path` atomically.
-pub fn write_parquet(
-    path: &Path,
-    batch: &RecordBatch,
-    metadata: Vec<(String, String)>,
-) -> Result<PathBuf, OutputError> {
-    let mut sink = ParquetSink::new(path, metadata);
-    sink.write(batch)?;
-    sink.finish()
 }
 
 /// The sweep a results file comes from.

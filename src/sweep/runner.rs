@@ -183,12 +183,13 @@ impl pipeline::Writer for Parts<'_> {
         let (first, last) = (indices.clone().min(), indices.max());
         let name = store::part_name(first.unwrap_or(0), last.unwrap_or(0), sweep.runs());
         let seeds = u64::from(sweep.seeds);
-        let [runs, series] = pipeline::tables(batch, seeds, &sweep.profile_names, profiles)?;
-        let trace = if self.trace {
-            Some(output::trace_batch(batch)?)
-        } else {
-            None
-        };
+        let traced = self.trace;
+        let (tables, trace) = rayon::join(
+            || pipeline::tables(batch, seeds, &sweep.profile_names, profiles),
+            || traced.then(|| output::trace_batch(batch)),
+        );
+        let [runs, series] = tables?;
+        let trace = trace.transpose()?;
         store::write_part(
             self.dir,
             &name,

@@ -1,0 +1,252 @@
+//! One Parquet file written batch by batch under a temporary name, its columns encoded in
+//! parallel on the rayon pool of the work (the serial encoding of a large batch's two files was
+//! the largest serial part of a 2-thread `mbmf run`), and renamed into place when complete.
+
+use std::fs::File;
+use std::path::{Path, PathBuf};
+
+use arrow::array::RecordBatch;
+use arrow::datatypes::SchemaRef;
+use parquet::arrow::ArrowWriter;
+use parquet::arrow::arrow_writer::{
+    ArrowColumnChunk, ArrowColumnWriter, ArrowLeafColumn, ArrowRowGroupWriterFactory,
+    compute_leaves,
+};
+use parquet::basic::{Compression, ZstdLevel};
+use parquet::errors::ParquetError;
+use parquet::file::metadata::KeyValue;
+use parquet::file::properties::{DEFAULT_MAX_ROW_GROUP_ROW_COUNT, WriterProperties};
+use parquet::file::writer::SerializedFileWriter;
+use parquet::schema::types::ColumnPath;
+use rayon::prelude::*;
+
+use super::{OutputError, is_repeated_column, provenance};
+
+/// A Parquet file being written under a temporary name, renamed into place by [`finish`].
+///
+/// Rows gather into row groups of at most [`DEFAULT_MAX_ROW_GROUP_ROW_COUNT`] rows, as
+/// parquet's `ArrowWriter` gathers them, so a file's layout does not depend on how its rows
+/// were batched; each column of a row group has its own encoder, so the columns of a batch are
+/// encoded side by side.
+///
+/// [`finish`]: ParquetSink::finish
+pub struct ParquetSink {
+    path: PathBuf,
+    tmp: PathBuf,
+    open: Option<Open>,
+    metadata: Vec<(String, String)>,
+}
+
+/// The file once its first batch fixed the schema.
+struct Open {
+    file: SerializedFileWriter<File>,
+    factory: ArrowRowGroupWriterFactory,
+    schema: SchemaRef,
+    /// The encoders of the row group being filled, one per leaf column, and its rows so far.
+    group: Option<(Vec<ArrowColumnWriter>, usize)>,
+}
+
+impl ParquetSink {
+    /// Prepares to write `path`; `metadata` goes into the file's key-value metadata.
+    pub fn new(path: &Path, metadata: Vec<(String, String)>) -> ParquetSink {
+        let name = path
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        let tmp = path.with_file_name(format!(".{name}.tmp-{}", std::process::id()));
+        ParquetSink {
+            path: path.to_path_buf(),
+            tmp,
+            open: None,
+            metadata,
+        }
+    }
+
+    /// The key-value metadata the file gets.
+    pub fn metadata(&self) -> &[(String, String)] {
+        &self.metadata
+    }
+
+    /// Appends a record batch (the first one fixes the schema).
+    pub fn write(&mut self, batch: &RecordBatch) -> Result<(), OutputError> {
+        let path = self.path.clone();
+        let parquet = |source| OutputError::Parquet {
+            path: path.clone(),
+            source,
+        };
+        if self.open.is_none() {
+            self.open = Some(self.create(batch)?);
+        }
+        let open = self.open.as_mut().expect("created above");
+        let mut rest = batch.clone();
+        while rest.num_rows() > 0 {
+            let (writers, rows) = match &mut open.group {
+                Some(group) => group,
+                none => {
+                    let index = open.file.flushed_row_groups().len();
+                    let writers = open.factory.create_column_writers(index).map_err(parquet)?;
+                    none.insert((writers, 0))
+                }
+            };
+            let take = rest.num_rows().min(DEFAULT_MAX_ROW_GROUP_ROW_COUNT - *rows);
+            encode(writers, &open.schema, &rest.slice(0, take)).map_err(parquet)?;
+            *rows += take;
+            rest = rest.slice(take, rest.num_rows() - take);
+            if *rows == DEFAULT_MAX_ROW_GROUP_ROW_COUNT {
+                open.flush().map_err(parquet)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// The temporary file and its writer, with the properties every results file has.
+    fn create(&self, batch: &RecordBatch) -> Result<Open, OutputError> {
+        let file = File::create(&self.tmp).map_err(|source| OutputError::Io {
+            path: self.tmp.clone(),
+            source,
+        })?;
+        let kv = self
+            .metadata
+            .iter()
+            .map(|(k, v)| KeyValue::new(k.clone(), v.clone()))
+            .collect();
+        // zstd level 3 (parquet-rs's default level): about half snappy's size for these
+        // repetitive parameter columns at a similar write speed.
+        let mut props = WriterProperties::builder()
+            .set_compression(Compression::ZSTD(ZstdLevel::default()))
+            .set_key_value_metadata(Some(kv));
+        // The parameter columns repeat a run's configuration on each of its rows: plain pages
+        // that zstd shrinks as well as a dictionary would, without hashing every value into one
+        // (most of the cost of writing them).
+        for field in batch.schema().fields() {
+            if is_repeated_column(field.name()) {
+                let column = ColumnPath::from(field.name().as_str());
+                props = props.set_column_dictionary_enabled(column, false);
+            }
+        }
+        let schema = batch.schema();
+        // ArrowWriter sets up what a reader needs of the Arrow schema (the encoded schema in
+        // the metadata, types coerced); its lower-level halves let the columns be encoded apart.
+        let (file, factory) = ArrowWriter::try_new(file, schema.clone(), Some(props.build()))
+            .and_then(ArrowWriter::into_serialized_writer)
+            .map_err(|source| OutputError::Parquet {
+                path: self.path.clone(),
+                source,
+            })?;
+        Ok(Open {
+            file,
+            factory,
+            schema,
+            group: None,
+        })
+    }
+
+    /// Flushes, syncs and renames the file into place. Returns its final path. On failure the
+    /// temporary file is removed, so nothing partial is left behind.
+    pub fn finish(mut self) -> Result<PathBuf, OutputError> {
+        let open = self.open.take().expect("finish after at least one write");
+        let result = self.close(open);
+        if result.is_err() {
+            let _ = std::fs::remove_file(&self.tmp);
+        }
+        result
+    }
+
+    fn close(&self, mut open: Open) -> Result<PathBuf, OutputError> {
+        let parquet = |source| OutputError::Parquet {
+            path: self.path.clone(),
+            source,
+        };
+        open.flush().map_err(parquet)?;
+        open.file.append_key_value_metadata(KeyValue::new(
+            provenance::ENDED_KEY.to_string(),
+            provenance::utc(std::time::SystemTime::now()),
+        ));
+        let file = open.file.into_inner().map_err(parquet)?;
+        file.sync_all().map_err(|source| OutputError::Io {
+            path: self.tmp.clone(),
+            source,
+        })?;
+        drop(file);
+        std::fs::rename(&self.tmp, &self.path).map_err(|source| OutputError::Io {
+            path: self.path.clone(),
+            source,
+        })?;
+        Ok(self.path.clone())
+    }
+}
+
+impl Open {
+    /// Closes the row group being filled, its columns side by side, and appends it.
+    fn flush(&mut self) -> Result<(), ParquetError> {
+        let Some((writers, _)) = self.group.take() else {
+            return Ok(());
+        };
+        let chunks: Vec<ArrowColumnChunk> = writers
+            .into_par_iter()
+            .map(ArrowColumnWriter::close)
+            .collect::<Result<_, _>>()?;
+        let mut group = self.file.next_row_group()?;
+        for chunk in chunks {
+            chunk.append_to_row_group(&mut group)?;
+        }
+        group.close()?;
+        Ok(())
+    }
+}
+
+/// Encodes the rows of `batch` into the column encoders of a row group, each column on its own
+/// rayon task (each writer owns its column's pages, so the order of the file does not change).
+fn encode(
+    writers: &mut [ArrowColumnWriter],
+    schema: &SchemaRef,
+    batch: &RecordBatch,
+) -> Result<(), ParquetError> {
+    let fields = schema.fields();
+    let same = |(f, c): (&arrow::datatypes::FieldRef, &arrow::array::ArrayRef)| {
+        f.data_type() == c.data_type()
+    };
+    if batch.num_columns() != fields.len() || !fields.iter().zip(batch.columns()).all(same) {
+        return Err(ParquetError::General(format!(
+            "a batch of schema {} for a file of schema {schema}",
+            batch.schema()
+        )));
+    }
+    let nested: Vec<Vec<ArrowLeafColumn>> = (fields.iter().zip(batch.columns()))
+        .collect::<Vec<_>>()
+        .into_par_iter()
+        .map(|(field, column)| compute_leaves(field, column))
+        .collect::<Result<_, _>>()?;
+    let leaves: Vec<ArrowLeafColumn> = nested.into_iter().flatten().collect();
+    if leaves.len() != writers.len() {
+        return Err(ParquetError::General(format!(
+            "{} leaf columns for {} column writers",
+            leaves.len(),
+            writers.len()
+        )));
+    }
+    writers
+        .par_iter_mut()
+        .zip(leaves.par_iter())
+        .try_for_each(|(writer, leaf)| writer.write(leaf))
+}
+
+impl Drop for ParquetSink {
+    fn drop(&mut self) {
+        // An unfinished sink (error or panic) removes its temporary file.
+        if self.open.is_some() {
+            let _ = std::fs::remove_file(&self.tmp);
+        }
+    }
+}
+
+/// Writes one record batch to `path` atomically.
+pub fn write_parquet(
+    path: &Path,
+    batch: &RecordBatch,
+    metadata: Vec<(String, String)>,
+) -> Result<PathBuf, OutputError> {
+    let mut sink = ParquetSink::new(path, metadata);
+    sink.write(batch)?;
+    sink.finish()
+}
