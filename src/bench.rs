@@ -42,6 +42,9 @@ pub enum BenchError {
     /// A chart could not be drawn.
     #[error(transparent)]
     Plot(#[from] PlotError),
+    /// A whole run could not be simulated or written.
+    #[error(transparent)]
+    Run(#[from] Box<crate::run::RunError>),
 }
 
 impl crate::error::Usage for BenchError {
@@ -99,6 +102,68 @@ pub fn configs(params: Params, runs: usize) -> Vec<RunConfig> {
             run_index,
         })
         .collect()
+}
+
+/// A whole `mbmf run` command's work timed: the runs of one configuration from building their
+/// configurations to both files committed, as one and as more threads do it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct WholeRun {
+    /// The configuration.
+    pub params: Params,
+    /// Its runs.
+    pub runs: u32,
+    /// Per thread count asked, the median wall seconds of the repeats.
+    pub seconds: Vec<(usize, f64)>,
+}
+
+/// Times `repeats` whole runs of `runs` runs of `params` on `task` into a temporary folder
+/// under `scratch`, for each thread count in `threads` in turn within each repeat (a slow
+/// spell of the machine weighs on all alike); the median of each. Unlike the steady-state
+/// rates, this includes allocating and starting the runs and encoding and writing the files:
+/// what a user waits for.
+pub fn whole_run(
+    task: &str,
+    params: Params,
+    runs: u32,
+    threads: &[usize],
+    repeats: usize,
+    scratch: &Path,
+) -> Result<WholeRun, BenchError> {
+    let spec = Arc::new(env::load(task)?);
+    let pools = threads
+        .iter()
+        .map(|&t| pool(t))
+        .collect::<Result<Vec<_>, _>>()?;
+    let out = scratch.join(".mbmf-bench-whole-run");
+    let mut times = vec![Vec::with_capacity(repeats); threads.len()];
+    let stop = std::sync::atomic::AtomicBool::new(false);
+    for _ in 0..repeats.max(1) {
+        for (pool, times) in pools.iter().zip(&mut times) {
+            let mut job = crate::run::Job::new(task, Arc::clone(&spec), vec![params], &out);
+            job.runs = runs;
+            job.force = true;
+            job.seed = SEED;
+            job.command = "mbmf bench".into();
+            let started = Instant::now();
+            pool.install(|| crate::run::execute(job, &stop, |_| {}))
+                .map_err(Box::new)?;
+            times.push(started.elapsed().as_secs_f64());
+        }
+    }
+    let _ = std::fs::remove_dir_all(&out);
+    let seconds = threads
+        .iter()
+        .zip(times)
+        .map(|(&t, mut v)| {
+            v.sort_by(f64::total_cmp);
+            (t, v[v.len() / 2])
+        })
+        .collect();
+    Ok(WholeRun {
+        params,
+        runs,
+        seconds,
+    })
 }
 
 /// Agent-steps per second of `window` steps of a clone of `template` on `pool`.

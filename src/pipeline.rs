@@ -2,8 +2,9 @@
 //! verb builds [`Group`]s of runs of one task lazily (windows of `mbmf run`'s runs, a sweep's
 //! batches of one task and one value of each text parameter) and hands each to a [`Job`], which
 //! simulates it in batches that fit in memory and gives every finished batch to its [`Writer`]
-//! (the [`Tables`] pair, or a sweep's parts) before the next is allocated, with progress
-//! reported through a callback that can stop the work.
+//! (the [`Tables`] pair, or a sweep's parts) while the next is simulated (at most two batches
+//! in memory, and one only when two would not fit), with progress reported through a callback
+//! that can stop the work.
 
 use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
@@ -111,7 +112,8 @@ pub struct Job<'a, W> {
 
 impl<W: Writer> Job<'_, W> {
     /// Simulates `group` on `spec` in batches of at most `batch_size` runs, handing each finished
-    /// batch to the writer and then to `observe`. `progress` is told the agent-steps advanced
+    /// batch to the writer and then to `observe` while the next batch is simulated (both are
+    /// called from the work's threads, in batch order). `progress` is told the agent-steps advanced
     /// every few thousand steps and says whether to go on: after a [`ControlFlow::Break`] the
     /// batch in hand is dropped (written first if it had just finished) and [`Interrupted`] is
     /// returned. It is asked only between strides (and once before the group), so a stop costs
@@ -120,11 +122,12 @@ impl<W: Writer> Job<'_, W> {
         &mut self,
         spec: &Arc<Spec>,
         group: &Group,
-        mut progress: impl FnMut(u64) -> ControlFlow<()>,
-        mut observe: impl FnMut(&Batch) -> Result<(), E>,
+        mut progress: impl FnMut(u64) -> ControlFlow<()> + Send,
+        mut observe: impl FnMut(&Batch) -> Result<(), E> + Send,
     ) -> Result<(), E>
     where
-        E: From<ConfigError> + From<MemoryError> + From<Interrupted> + From<W::Error>,
+        W: Send,
+        E: From<ConfigError> + From<MemoryError> + From<Interrupted> + From<W::Error> + Send,
     {
         if progress(0).is_break() {
             return Err(Interrupted.into());
@@ -156,12 +159,12 @@ impl<W: Writer> Job<'_, W> {
 
 /// Simulates `configs` on `spec` without changes, as [`Job::simulate`] does, handing each
 /// finished batch to `on_batch`.
-pub fn simulate<E: From<ConfigError> + From<MemoryError>>(
+pub fn simulate<E: From<ConfigError> + From<MemoryError> + Send>(
     spec: &Arc<Spec>,
     configs: &[RunConfig],
     batch_size: usize,
-    mut progress: impl FnMut(u64),
-    mut on_batch: impl FnMut(&Batch) -> Result<(), E>,
+    mut progress: impl FnMut(u64) + Send,
+    mut on_batch: impl FnMut(&Batch) -> Result<(), E> + Send,
 ) -> Result<(), E> {
     let go_on = |n| {
         progress(n);
@@ -182,58 +185,121 @@ pub fn simulate<E: From<ConfigError> + From<MemoryError>>(
 /// The loop of [`Job::simulate`]: `on_batch` gets each finished batch (of `batch_size` runs,
 /// recording the trace when `trace`) and the position of its first run in `configs`; `Break`
 /// when `progress` stopped it.
-fn batches<E: From<ConfigError> + From<MemoryError>>(
+///
+/// A finished batch is handed over while the next one is simulated, both on the work's
+/// threads (`rayon::join`), so encoding and writing a batch no longer holds every thread but
+/// one idle: at most two batches exist, the one simulated and the one waiting for or being
+/// handed over, and only when the memory a batch may take holds two (otherwise the finished
+/// batch is handed over first, as one thread would). Batches are handed over in order; the
+/// next batch is allocated beside the hand-over too.
+fn batches<E>(
     spec: &Arc<Spec>,
     configs: &[RunConfig],
     schedules: &[Schedule],
     run_schedule: &[usize],
     (batch_size, trace): (usize, bool),
-    mut progress: impl FnMut(u64) -> ControlFlow<()>,
-    mut on_batch: impl FnMut(&Batch, usize) -> Result<(), E>,
-) -> Result<ControlFlow<()>, E> {
+    mut progress: impl FnMut(u64) -> ControlFlow<()> + Send,
+    mut on_batch: impl FnMut(&Batch, usize) -> Result<(), E> + Send,
+) -> Result<ControlFlow<()>, E>
+where
+    E: From<ConfigError> + From<MemoryError> + Send,
+{
     let size = batch_size.max(1);
+    let bytes_of = |chunk: &[RunConfig]| -> u64 {
+        chunk
+            .iter()
+            .map(|c| bytes_per_run(spec, &c.params, trace))
+            .sum()
+    };
+    // Two batches at once only where the memory a batch may take holds two of the largest.
+    let largest = configs.chunks(size).map(bytes_of).max().unwrap_or(0);
+    let overlap = limits::memory().is_none_or(|b| largest.saturating_mul(2) <= b.batch_share());
+    // A finished batch and the position of its first run, not handed over yet.
+    let mut waiting: Option<(Batch, usize)> = None;
     for (k, chunk) in configs.chunks(size).enumerate() {
         let which = run_schedule
             .get(k * size..k * size + chunk.len())
             .unwrap_or(&[]);
-        let bytes = chunk
-            .iter()
-            .map(|c| bytes_per_run(spec, &c.params, trace))
-            .sum();
-        reserve(bytes, chunk.len())?;
-        let mut batch = Batch::with_schedules(Arc::clone(spec), chunk.to_vec(), schedules, which)?;
-        if trace {
-            batch.record_trace();
+        if !overlap && let Some((done, first)) = waiting.take() {
+            on_batch(&done, first)?;
         }
-        let longest = chunk
-            .iter()
-            .map(|c| run_steps(&c.params))
-            .max()
-            .unwrap_or(0);
-        let mut done = 0;
-        let mut flow = ControlFlow::Continue(());
-        while done < longest && flow.is_continue() {
-            let stride = PROGRESS_STRIDE.min(longest - done);
-            batch.advance(stride);
-            done += stride;
-            let advanced: u64 = chunk
-                .iter()
-                .map(|c| {
-                    let end = run_steps(&c.params);
-                    end.min(done) - end.min(done - stride)
-                })
-                .sum();
-            flow = progress(advanced);
-        }
+        reserve(bytes_of(chunk), chunk.len())?;
+        // A failed hand-over stops the simulation beside it at its next stride.
+        let failed = AtomicBool::new(false);
+        let (handed, simulated) = rayon::join(
+            || {
+                let Some((done, first)) = waiting.take() else {
+                    return Ok(());
+                };
+                let handed = on_batch(&done, first);
+                if handed.is_err() {
+                    failed.store(true, Ordering::Relaxed);
+                }
+                handed
+            },
+            || {
+                let mut batch =
+                    Batch::with_schedules(Arc::clone(spec), chunk.to_vec(), schedules, which)?;
+                if trace {
+                    batch.record_trace();
+                }
+                let (finished, flow) = simulate_strides(&mut batch, chunk, |n| {
+                    if failed.load(Ordering::Relaxed) {
+                        ControlFlow::Break(())
+                    } else {
+                        progress(n)
+                    }
+                });
+                Ok::<_, E>((batch, finished, flow))
+            },
+        );
+        handed?;
+        let (batch, finished, flow) = simulated?;
         // A batch that finished is kept even when the stop came with its last stride.
-        if done == longest {
-            on_batch(&batch, k * size)?;
+        if finished {
+            waiting = Some((batch, k * size));
         }
         if flow.is_break() {
+            if let Some((done, first)) = waiting.take() {
+                on_batch(&done, first)?;
+            }
             return Ok(flow);
         }
     }
+    if let Some((done, first)) = waiting.take() {
+        on_batch(&done, first)?;
+    }
     Ok(ControlFlow::Continue(()))
+}
+
+/// Advances `batch` (the runs `chunk`) to its end, a stride at a time, telling `progress` the
+/// agent-steps of each stride; whether it finished, and the flow `progress` last returned.
+fn simulate_strides(
+    batch: &mut Batch,
+    chunk: &[RunConfig],
+    mut progress: impl FnMut(u64) -> ControlFlow<()>,
+) -> (bool, ControlFlow<()>) {
+    let longest = chunk
+        .iter()
+        .map(|c| run_steps(&c.params))
+        .max()
+        .unwrap_or(0);
+    let mut done = 0;
+    let mut flow = ControlFlow::Continue(());
+    while done < longest && flow.is_continue() {
+        let stride = PROGRESS_STRIDE.min(longest - done);
+        batch.advance(stride);
+        done += stride;
+        let advanced: u64 = chunk
+            .iter()
+            .map(|c| {
+                let end = run_steps(&c.params);
+                end.min(done) - end.min(done - stride)
+            })
+            .sum();
+        flow = progress(advanced);
+    }
+    (done == longest, flow)
 }
 
 /// The runs and series tables of a finished batch with `config_index` and `seed_index` after
@@ -281,10 +347,12 @@ pub fn tables(
         let schema = Schema::new_with_metadata(fields, schema.metadata().clone());
         RecordBatch::try_new(Arc::new(schema), columns)
     };
-    Ok([
-        label(output::runs_batch(batch)?, &runs)?,
-        label(output::series_batch(batch)?, &series)?,
-    ])
+    // Two independent tables: built side by side on the work's threads.
+    let (runs, series) = rayon::join(
+        || Ok::<_, OutputError>(label(output::runs_batch(batch)?, &runs)?),
+        || Ok::<_, OutputError>(label(output::series_batch(batch)?, &series)?),
+    );
+    Ok([runs?, series?])
 }
 
 /// A runs.parquet and a series.parquet (and, when traced, a trace.parquet) being written side
@@ -349,9 +417,14 @@ impl Writer for Tables {
     type Error = OutputError;
 
     fn write(&mut self, batch: &Batch, profiles: &[usize]) -> Result<(), OutputError> {
-        let [runs, series] = tables(batch, self.seeds, &self.names, profiles)?;
-        if let Some(sink) = &mut self.trace {
-            sink.write(&output::trace_batch(batch)?)?;
+        let traced = self.trace.is_some();
+        let (tables, trace) = rayon::join(
+            || tables(batch, self.seeds, &self.names, profiles),
+            || traced.then(|| output::trace_batch(batch)),
+        );
+        let [runs, series] = tables?;
+        if let (Some(sink), Some(trace)) = (&mut self.trace, trace) {
+            sink.write(&trace?)?;
         }
         self.runs.write(&runs)?;
         self.series.write(&series)

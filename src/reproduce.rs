@@ -354,7 +354,7 @@ fn conditions_sweep(conditions: &[Condition], scale: &Scale, seed: u64, quick: b
 pub fn reproduce(
     options: &Options,
     total: impl FnOnce(u64),
-    progress: impl FnMut(u64),
+    progress: impl FnMut(u64) + Send,
 ) -> Result<Summary, ReproduceError> {
     let started = Instant::now();
     let scale = Scale::new(options);
@@ -396,7 +396,7 @@ fn simulate_all(
     args: &Options,
     scale: &Scale,
     total: impl FnOnce(u64),
-    mut progress: impl FnMut(u64),
+    mut progress: impl FnMut(u64) + Send,
 ) -> Result<Vec<Outcome>, ReproduceError> {
     let conditions = conditions(scale);
     let file = args.out.join("sweep.toml");

@@ -22,7 +22,6 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
-use std::cell::Cell;
 use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -374,7 +373,7 @@ impl Open {
     pub fn simulate(
         self,
         stop: &AtomicBool,
-        mut progress: impl FnMut(u64),
+        mut progress: impl FnMut(u64) + Send,
     ) -> Result<Done, RunError> {
         let Open {
             run,
@@ -442,15 +441,15 @@ impl Run {
     pub fn stream(
         self,
         stop: &AtomicBool,
-        mut progress: impl FnMut(u64),
-        mut each: impl FnMut([RecordBatch; 2]) -> ControlFlow<()>,
+        mut progress: impl FnMut(u64) + Send,
+        mut each: impl FnMut([RecordBatch; 2]) -> ControlFlow<()> + Send,
     ) -> Result<u64, RunError> {
         let job = &self.job;
         // A stream hands over runs and series only: its batches record no trace.
         let batch_size =
             pipeline::plan_batch_size(&job.spec, &job.firsts(), job.batch_size, false)?;
         let schedules = [job.schedule.clone()];
-        let halted = Cell::new(false);
+        let halted = AtomicBool::new(false);
         let mut pipeline_job = pipeline::Job {
             schedules: &schedules,
             batch_size,
@@ -462,7 +461,7 @@ impl Run {
         };
         let progress = |n| {
             progress(n);
-            if halted.get() {
+            if halted.load(Ordering::Relaxed) {
                 ControlFlow::Break(())
             } else {
                 pipeline::unless_stopped(stop)
@@ -477,20 +476,20 @@ impl Run {
 struct Handed<'a, F> {
     seeds: u64,
     each: &'a mut F,
-    halted: &'a Cell<bool>,
+    halted: &'a AtomicBool,
 }
 
-impl<F: FnMut([RecordBatch; 2]) -> ControlFlow<()>> pipeline::Writer for Handed<'_, F> {
+impl<F: FnMut([RecordBatch; 2]) -> ControlFlow<()> + Send> pipeline::Writer for Handed<'_, F> {
     type Error = OutputError;
 
     fn write(&mut self, batch: &Batch, profiles: &[usize]) -> Result<(), OutputError> {
         // A batch that finished with the stride that saw the stop is not handed over.
-        if self.halted.get() {
+        if self.halted.load(Ordering::Relaxed) {
             return Ok(());
         }
         let tables = pipeline::tables(batch, self.seeds, &[], profiles)?;
         if (self.each)(tables).is_break() {
-            self.halted.set(true);
+            self.halted.store(true, Ordering::Relaxed);
         }
         Ok(())
     }
@@ -499,11 +498,11 @@ impl<F: FnMut([RecordBatch; 2]) -> ControlFlow<()>> pipeline::Writer for Handed<
 /// Simulates every run of `job` in windows of whole batches into `pipeline_job`'s writer, so
 /// that batches are cut where one call over every run cuts them and only a window's
 /// configurations are in memory.
-fn windows<W: pipeline::Writer>(
+fn windows<W: pipeline::Writer + Send>(
     job: &Job,
     pipeline_job: &mut pipeline::Job<'_, W>,
-    mut progress: impl FnMut(u64) -> ControlFlow<()>,
-    mut observe: impl FnMut(&Batch) -> Result<(), RunError>,
+    mut progress: impl FnMut(u64) -> ControlFlow<()> + Send,
+    mut observe: impl FnMut(&Batch) -> Result<(), RunError> + Send,
 ) -> Result<(), RunError>
 where
     RunError: From<W::Error>,
@@ -526,7 +525,11 @@ where
 
 /// Checks, sizes, opens and simulates `job` in one call: [`Run::new`], [`Run::size`],
 /// [`Run::open`] and [`Open::simulate`].
-pub fn execute(job: Job, stop: &AtomicBool, progress: impl FnMut(u64)) -> Result<Done, RunError> {
+pub fn execute(
+    job: Job,
+    stop: &AtomicBool,
+    progress: impl FnMut(u64) + Send,
+) -> Result<Done, RunError> {
     let mut run = Run::new(job)?;
     run.size()?;
     run.open()?.simulate(stop, progress)

@@ -4,7 +4,7 @@
 
 use std::collections::BTreeMap;
 use std::path::Path;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::SystemTime;
 
 use mbmf::analysis::dataset::read_dataset;
@@ -140,15 +140,15 @@ fn an_interrupted_study_resumes_without_rerunning_finished_cells_and_gives_the_s
     // sweep, run first, is much shorter than a third).
     let cut = dir.path().join("cut");
     let stop = AtomicBool::new(false);
-    let total = std::cell::Cell::new(0);
+    let total = AtomicU64::new(0);
     let mut done = 0;
     let err = arbitration(
         &options(&cut),
         &stop,
-        |n| total.set(n),
+        |n| total.store(n, Ordering::Relaxed),
         |n| {
             done += n;
-            if done * 3 > total.get() {
+            if done * 3 > total.load(Ordering::Relaxed) {
                 stop.store(true, Ordering::Relaxed);
             }
         },

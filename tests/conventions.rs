@@ -418,7 +418,8 @@ fn the_readme_shows_what_the_default_run_prints() {
 }
 
 /// `mbmf bench --json` is one object: a positive rate for every rule of SPEC 4 and 12 (and
-/// `combine = mix`) on tidy1 and twostep, the thread scaling, and the memory per instance.
+/// `combine = mix`) on tidy1 and twostep, the thread scaling, the whole commands, and the memory
+/// per instance.
 #[test]
 fn bench_json_is_one_object_with_every_rule_and_the_memory() {
     let output = mbmf()
@@ -455,6 +456,20 @@ fn bench_json_is_one_object_with_every_rule_and_the_memory() {
         );
     }
     assert!(rates.iter().any(|r| r["threads"] == 2), "the 2-thread rate");
+    // The whole commands: MF 4,096 runs x 3,000 steps and EC 1,024 x 1,000, on 1 and 2 threads.
+    let wholes = report["whole_commands"].as_array().expect("whole commands");
+    for (controller, runs, steps) in [("mf", 4096, 4096 * 3000), ("ec", 1024, 1024 * 1000)] {
+        for threads in [1, 2] {
+            assert!(
+                wholes.iter().any(|w| w["controller"] == controller
+                    && w["runs"] == runs
+                    && w["agent_steps"] == steps
+                    && w["threads"] == threads
+                    && w["seconds"].as_f64().is_some_and(|s| s > 0.0)),
+                "{controller} whole command on {threads} thread(s): {wholes:?}"
+            );
+        }
+    }
     let state = report["memory"]["state_bytes_per_run"]
         .as_u64()
         .expect("bytes");

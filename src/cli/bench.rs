@@ -10,7 +10,7 @@ use clap::Args;
 use super::{Failure, runtime, usage};
 use crate::bench::{
     GROWTH_CONTROLLERS, GROWTH_RUNS, GROWTH_STEPS, GrowthPoint, growth, growth_sizes,
-    memory_per_instance, steady_rate, write_growth,
+    memory_per_instance, steady_rate, whole_run, write_growth,
 };
 use crate::env;
 use crate::params::{Combine, Controller, Params};
@@ -55,6 +55,7 @@ pub fn command(args: &BenchArgs) -> Result<(), Failure> {
     let mut report = Report {
         text: !args.json,
         rates: Vec::new(),
+        wholes: Vec::new(),
     };
     say!(
         report,
@@ -85,6 +86,14 @@ pub fn command(args: &BenchArgs) -> Result<(), Failure> {
             "threads_available": cores,
             "window": "steady state: the last 1,000 steps of each run, median of timed windows",
             "rates": rates,
+            "whole_commands": report.wholes.iter().map(|w| serde_json::json!({
+                "task": "tidy1",
+                "controller": w.controller.name(),
+                "runs": w.runs,
+                "agent_steps": w.agent_steps,
+                "threads": w.threads,
+                "seconds": w.seconds,
+            })).collect::<Vec<_>>(),
             "memory": {
                 "runs": 10_000,
                 "state_bytes_per_run": memory.layout_bytes,
@@ -136,10 +145,20 @@ struct Rate {
     steps_per_s: f64,
 }
 
+/// One whole command timed.
+struct Whole {
+    controller: Controller,
+    runs: u32,
+    agent_steps: u64,
+    threads: usize,
+    seconds: f64,
+}
+
 /// What `mbmf bench` measured, printed as it goes unless `--json` asks for one object at the end.
 struct Report {
     text: bool,
     rates: Vec<Rate>,
+    wholes: Vec<Whole>,
 }
 
 /// `outln!` when the report prints its tables.
@@ -264,6 +283,46 @@ fn headline(cores: usize, report: &mut Report) -> anyhow::Result<crate::bench::M
             threads: *t,
             steps_per_s: *rate,
         });
+    }
+
+    // What a user waits for: whole commands, writing included, on 1 and 2 threads.
+    say!(report);
+    say!(
+        report,
+        "whole mbmf run commands on tidy1 (median of 3, files written), by thread count:"
+    );
+    let scratch = tempfile::tempdir()?;
+    // The workloads of benches/peers: MF at 4,096 runs x (1,000 babbling + 2,000 steps), EC's
+    // early phase at 1,024 x 1,000 steps without babbling.
+    let workloads = [
+        (Controller::Mf, 4096, 1000, 2000),
+        (Controller::Ec, 1024, 0, 1000),
+    ];
+    for (controller, runs, babbling, steps) in workloads {
+        let params = Params {
+            babbling,
+            steps,
+            ..tidy1_params(controller)
+        };
+        let whole = whole_run("tidy1", params, runs, &[1, 2], 3, scratch.path())?;
+        let one = whole.seconds[0].1;
+        let steps = u64::from(runs) * crate::pipeline::run_steps(&params);
+        for &(threads, seconds) in &whole.seconds {
+            say!(
+                report,
+                "  {:<4} {runs:>5} runs x {:>5} steps  {threads} thread(s) {seconds:>7.3} s  ({:.2}x one thread)",
+                controller.name(),
+                crate::pipeline::run_steps(&params),
+                one / seconds
+            );
+            report.wholes.push(Whole {
+                controller,
+                runs,
+                agent_steps: steps,
+                threads,
+                seconds,
+            });
+        }
     }
 
     say!(report);

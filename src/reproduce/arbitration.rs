@@ -168,7 +168,7 @@ pub fn arbitration(
     options: &Options,
     stop: &AtomicBool,
     total: impl FnOnce(u64),
-    mut progress: impl FnMut(u64),
+    mut progress: impl FnMut(u64) + Send,
 ) -> Result<Summary, ReproduceError> {
     let runs = options
         .runs

@@ -276,7 +276,7 @@ pub fn execute(
     specs: &[Arc<Spec>],
     options: &Options,
     stop: &AtomicBool,
-    events: &mut dyn FnMut(Event<'_>),
+    events: &mut (dyn FnMut(Event<'_>) + Send),
 ) -> Result<Report, RunError> {
     let started = Instant::now();
     let out = &options.out;
