@@ -302,6 +302,22 @@ fn simulate_strides(
     (done == longest, flow)
 }
 
+/// Fewest runs of a batch cut for [`overlapped`]: below this, a batch's fixed costs (its
+/// views, allocation and Parquet pages) outweigh what the overlap saves.
+const MIN_OVERLAPPED_BATCH: usize = 256;
+
+/// Runs per batch for a job of `runs` runs whose batches may hold `batch_size`: on more than
+/// one thread, at least four batches of at least [`MIN_OVERLAPPED_BATCH`] runs, so that even a
+/// job that fits in one batch writes its first batches while simulating the next ones (on one
+/// thread nothing overlaps: `batch_size`). Results do not depend on the batch size.
+pub fn overlapped(batch_size: usize, runs: u64) -> usize {
+    if rayon::current_num_threads() < 2 {
+        return batch_size;
+    }
+    let quarter = usize::try_from(runs.div_ceil(4)).unwrap_or(usize::MAX);
+    batch_size.min(quarter.max(MIN_OVERLAPPED_BATCH)).max(1)
+}
+
 /// The runs and series tables of a finished batch with `config_index` and `seed_index` after
 /// `master_seed` (from each run's index, for configurations of `seeds` runs) and, unless
 /// `profiles` is empty, the `profile` column written with `names[profiles[run]]` (a sweep's
@@ -645,6 +661,24 @@ fn human(bytes: u64) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn more_than_one_thread_cuts_a_job_into_four_batches_of_at_least_256_runs() {
+        let on = |threads: usize, batch_size: usize, runs: u64| {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .expect("pool");
+            pool.install(|| overlapped(batch_size, runs))
+        };
+        assert_eq!(on(1, 4096, 4096), 4096, "one thread: as planned");
+        assert_eq!(on(2, 4096, 4096), 1024);
+        assert_eq!(on(2, 4096, 1024), 256);
+        assert_eq!(on(2, 4096, 1000), 256, "a quarter, rounded up to 256");
+        assert_eq!(on(2, 4096, 100), 256, "a small job stays one batch");
+        assert_eq!(on(2, 512, 100_000), 512, "never above the planned size");
+        assert_eq!(on(2, 1, 4096), 1);
+    }
 
     #[test]
     fn the_memory_estimate_of_a_run_covers_the_batch_state_it_allocates() {

@@ -391,7 +391,7 @@ impl Open {
         }
         let mut pipeline_job = pipeline::Job {
             schedules: &schedules,
-            batch_size: run.batch_size,
+            batch_size: pipeline::overlapped(run.batch_size, total),
             writer,
         };
         let mut summary = Summary::new(&job.out);
