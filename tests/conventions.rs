@@ -418,7 +418,7 @@ fn the_readme_shows_what_the_default_run_prints() {
 }
 
 /// `mbmf bench --json` is one object: a positive rate for every rule of SPEC 4 and 12 (and
-/// `combine = mix`) on tidy1 and twostep, the thread scaling, the whole commands, and the memory
+/// `combine = mix`) on tidy1, tidy2 and twostep, the thread scaling, the whole commands, and the memory
 /// per instance.
 #[test]
 fn bench_json_is_one_object_with_every_rule_and_the_memory() {
@@ -443,13 +443,13 @@ fn bench_json_is_one_object_with_every_rule_and_the_memory() {
         assert!(has("tidy1", controller, "select"), "{controller} on tidy1");
     }
     for controller in ["ec", "fixed", "reliability", "vpi"] {
-        assert!(
-            has("twostep", controller, "select"),
-            "{controller} on twostep"
-        );
+        for task in ["tidy2", "twostep"] {
+            assert!(has(task, controller, "select"), "{controller} on {task}");
+        }
     }
     for controller in ["ec", "fixed", "reliability"] {
         assert!(has("tidy1", controller, "mix"), "{controller} mix on tidy1");
+        assert!(has("tidy2", controller, "mix"), "{controller} mix on tidy2");
         assert!(
             has("twostep", controller, "mix"),
             "{controller} mix on twostep"

@@ -250,3 +250,126 @@ pub fn write_parquet(
     sink.write(batch)?;
     sink.finish()
 }
+
+#[cfg(test)]
+mod tests {
+    use std::sync::Arc;
+
+    use arrow::array::{Array, Float64Array, Int64Array, StringArray};
+    use arrow::datatypes::{DataType, Field, Schema};
+    use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
+
+    use super::*;
+
+    fn batch(from: i64, rows: usize) -> RecordBatch {
+        let schema = Schema::new(vec![
+            Field::new("run_index", DataType::Int64, false),
+            Field::new("task", DataType::Utf8, false),
+            Field::new("p_mb_mean", DataType::Float64, true),
+        ]);
+        let index: Vec<i64> = (from..from + rows as i64).collect();
+        let task: Vec<&str> = index
+            .iter()
+            .map(|i| if i % 2 == 0 { "tidy1" } else { "tidy2" })
+            .collect();
+        let p: Vec<Option<f64>> = index
+            .iter()
+            .map(|&i| (i % 3 != 0).then_some(i as f64 / 7.0))
+            .collect();
+        RecordBatch::try_new(
+            Arc::new(schema),
+            vec![
+                Arc::new(Int64Array::from(index)),
+                Arc::new(StringArray::from(task)),
+                Arc::new(Float64Array::from(p)),
+            ],
+        )
+        .expect("batch")
+    }
+
+    #[test]
+    fn batches_written_in_turn_read_back_as_one_row_group_with_their_values_and_metadata() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("t.parquet");
+        let mut sink = ParquetSink::new(&path, vec![("mbmf_run_id".into(), "x".into())]);
+        let parts = [batch(0, 5), batch(5, 0), batch(5, 1000), batch(1005, 3)];
+        for b in &parts {
+            sink.write(b).unwrap();
+        }
+        assert_eq!(sink.finish().unwrap(), path);
+        assert_eq!(
+            std::fs::read_dir(dir.path()).unwrap().count(),
+            1,
+            "no temporary file left"
+        );
+        let builder = ParquetRecordBatchReaderBuilder::try_new(File::open(&path).unwrap()).unwrap();
+        let meta = builder.metadata().clone();
+        assert_eq!(meta.num_row_groups(), 1);
+        let kv = meta.file_metadata().key_value_metadata().unwrap();
+        assert!(
+            kv.iter()
+                .any(|k| k.key == "mbmf_run_id" && k.value.as_deref() == Some("x"))
+        );
+        assert!(kv.iter().any(|k| k.key == provenance::ENDED_KEY));
+        let read: Vec<RecordBatch> = builder.build().unwrap().map(Result::unwrap).collect();
+        let all = arrow::compute::concat_batches(&read[0].schema(), &read).unwrap();
+        let expected = arrow::compute::concat_batches(&parts[0].schema(), &parts).unwrap();
+        assert_eq!(all.num_rows(), 1008);
+        for c in 0..3 {
+            assert_eq!(
+                all.column(c).to_data(),
+                expected.column(c).to_data(),
+                "column {c}"
+            );
+        }
+        assert_eq!(
+            all.column(2).null_count(),
+            336,
+            "every third run has no p_mb_mean"
+        );
+    }
+
+    #[test]
+    fn rows_past_the_row_group_limit_start_a_new_row_group() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("t.parquet");
+        let mut sink = ParquetSink::new(&path, vec![]);
+        let first = DEFAULT_MAX_ROW_GROUP_ROW_COUNT - 10;
+        sink.write(&batch(0, first)).unwrap();
+        sink.write(&batch(first as i64, 25)).unwrap();
+        sink.finish().unwrap();
+        let builder = ParquetRecordBatchReaderBuilder::try_new(File::open(&path).unwrap()).unwrap();
+        let groups: Vec<i64> = builder
+            .metadata()
+            .row_groups()
+            .iter()
+            .map(|g| g.num_rows())
+            .collect();
+        assert_eq!(groups, [DEFAULT_MAX_ROW_GROUP_ROW_COUNT as i64, 15]);
+    }
+
+    #[test]
+    fn a_batch_of_another_schema_is_refused_and_leaves_no_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("t.parquet");
+        let mut sink = ParquetSink::new(&path, vec![]);
+        sink.write(&batch(0, 4)).unwrap();
+        let other = RecordBatch::try_new(
+            Arc::new(Schema::new(vec![Field::new(
+                "run_index",
+                DataType::Utf8,
+                false,
+            )])),
+            vec![Arc::new(StringArray::from(vec!["a"]))],
+        )
+        .unwrap();
+        let err = sink.write(&other).expect_err("another schema");
+        let cause = std::error::Error::source(&err).map(ToString::to_string);
+        assert!(
+            cause.as_deref().is_some_and(|c| c.contains("schema")),
+            "{err}: {cause:?}"
+        );
+        drop(sink);
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0, "{err}");
+    }
+}
