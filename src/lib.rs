@@ -18,6 +18,7 @@ pub mod bench;
 pub mod env;
 pub mod error;
 pub mod expert;
+pub mod huge_pages;
 pub mod human;
 pub mod limits;
 pub mod meta;

@@ -1,7 +1,9 @@
 //! The `mbmf` binary: parse, run, and turn any error into a message and an exit code (2 for
 //! usage errors, 1 for runtime failures).
 
-use std::alloc::{GlobalAlloc, Layout, System};
+use std::alloc::{GlobalAlloc, Layout};
+
+use mbmf::huge_pages::HugePageSystem;
 use std::io::Write as _;
 
 mod cli;
@@ -14,9 +16,10 @@ use mbmf::{
     reproduce, rng, run, run_stats, schedule, session, sizing, suggest, sweep, web, whole_file,
 };
 
-/// The system allocator, except that running out of memory ends the process with a message,
-/// exit code 1 and its temporary files removed, instead of Rust's abort (exit 134) that leaves
-/// them. A failed probe of [`mbmf::limits::can_reserve`] is returned to it as usual.
+/// The system allocator with large allocations on huge pages ([`HugePageSystem`]), except that
+/// running out of memory ends the process with a message, exit code 1 and its temporary files
+/// removed, instead of Rust's abort (exit 134) that leaves them. A failed probe of
+/// [`mbmf::limits::can_reserve`] is returned to it as usual.
 struct ExitOnOutOfMemory;
 
 /// `pointer`, unless it is null for an allocation that cannot be done without.
@@ -27,25 +30,28 @@ fn checked(pointer: *mut u8, bytes: usize) -> *mut u8 {
     pointer
 }
 
-// SAFETY: every call is forwarded to `System` with its arguments unchanged.
+// SAFETY: every call is forwarded to `HugePageSystem` with its arguments unchanged.
 unsafe impl GlobalAlloc for ExitOnOutOfMemory {
     unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        checked(unsafe { System.alloc(layout) }, layout.size())
+        checked(unsafe { HugePageSystem.alloc(layout) }, layout.size())
     }
 
     unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
-        checked(unsafe { System.alloc_zeroed(layout) }, layout.size())
+        checked(
+            unsafe { HugePageSystem.alloc_zeroed(layout) },
+            layout.size(),
+        )
     }
 
     unsafe fn realloc(&self, pointer: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
         checked(
-            unsafe { System.realloc(pointer, layout, new_size) },
+            unsafe { HugePageSystem.realloc(pointer, layout, new_size) },
             new_size,
         )
     }
 
     unsafe fn dealloc(&self, pointer: *mut u8, layout: Layout) {
-        unsafe { System.dealloc(pointer, layout) }
+        unsafe { HugePageSystem.dealloc(pointer, layout) }
     }
 }
 

@@ -26,6 +26,10 @@ use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyString};
 use pyo3_arrow::PyTable;
 
+/// The library's batches on huge pages, as in the `mbmf` binary (`mbmf::huge_pages`).
+#[global_allocator]
+static ALLOCATOR: mbmf::huge_pages::HugePageSystem = mbmf::huge_pages::HugePageSystem;
+
 /// Most runs per configuration, as `mbmf run --runs` accepts.
 const MAX_RUNS: u64 = 1_000_000;
 
