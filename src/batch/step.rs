@@ -615,10 +615,22 @@ fn decide<A: Arbiter, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
     // A person's G may be -1 (a punishment): read signed, in their runs only.
     let signed = HUMAN && run.cursor.human.interaction == Interaction::Person;
     let (tau, alpha) = (params.tau, params.filter_alpha);
+    // Per action (vpi), a decision that values every action by one expert draws from that
+    // expert's softmax as it is folded (the same function of the same row), not a copy of it.
+    let per_action = A::DRAW == Draw::PerAction;
+    let whole = if !per_action {
+        None
+    } else if !choice.use_mb && A::RUNS_MF {
+        Some(Expert::Mf)
+    } else if choice.p_mb == 1.0 && A::RUNS_MB {
+        Some(Expert::Mb)
+    } else {
+        None
+    };
     if A::RUNS_MF {
         let fold = Fold {
             expert: Expert::Mf,
-            drawn: A::DRAW == Draw::Expert && !choice.use_mb,
+            drawn: (A::DRAW == Draw::Expert && !choice.use_mb) || whole == Some(Expert::Mf),
             kept: keeps_softmax,
             q: &run.q_mf[row.clone()],
             g,
@@ -637,7 +649,7 @@ fn decide<A: Arbiter, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
     if A::RUNS_MB {
         let fold = Fold {
             expert: Expert::Mb,
-            drawn: A::DRAW == Draw::Expert && choice.use_mb,
+            drawn: (A::DRAW == Draw::Expert && choice.use_mb) || whole == Some(Expert::Mb),
             kept: false,
             q: &run.q_mb[row.clone()],
             g,
@@ -656,23 +668,30 @@ fn decide<A: Arbiter, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
     let a = if A::DRAW == Draw::Expert {
         draw(if choice.use_mb { p_mb } else { p_mf }, uniform(run.rng))
     } else {
-        // The experts' softmaxes are folded: their scratch space holds the values the action
-        // is drawn from, then their softmax (with the Eq. 8 bonus).
-        let (q_mf, q_mb) = (&run.q_mf[row.clone()], &run.q_mb[row.clone()]);
-        let (p, values) = run.scratch.split_at_mut(n_a);
-        if A::DRAW == Draw::Mix {
-            let w = choice.p_mb;
-            for ((v, &mb), &mf) in values.iter_mut().zip(q_mb).zip(q_mf) {
-                *v = w * mb + (1.0 - w) * mf;
+        let p: &[f64] = match whole {
+            Some(Expert::Mb) => p_mb,
+            Some(Expert::Mf) => p_mf,
+            None => {
+                // The experts' softmaxes are folded: their scratch space holds the values the
+                // action is drawn from, then their softmax (with the Eq. 8 bonus).
+                let (q_mf, q_mb) = (&run.q_mf[row.clone()], &run.q_mb[row.clone()]);
+                let (p, values) = run.scratch.split_at_mut(n_a);
+                if A::DRAW == Draw::Mix {
+                    let w = choice.p_mb;
+                    for ((v, &mb), &mf) in values.iter_mut().zip(q_mb).zip(q_mf) {
+                        *v = w * mb + (1.0 - w) * mf;
+                    }
+                } else {
+                    let own = Own {
+                        run: run.arbiter_run,
+                        pairs: run.arbiter_pairs,
+                    };
+                    A::action_values(&own, s, q_mf, q_mb, values);
+                }
+                softmax_graded_by(signed, values, g, bonus, tau, p);
+                p
             }
-        } else {
-            let own = Own {
-                run: run.arbiter_run,
-                pairs: run.arbiter_pairs,
-            };
-            A::action_values(&own, s, q_mf, q_mb, values);
-        }
-        softmax_graded_by(signed, values, g, bonus, tau, p);
+        };
         choice.chosen_entropy = normalise_bits(entropy_bits(p), n_a);
         draw(p, uniform(run.rng))
     };
