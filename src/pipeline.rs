@@ -371,6 +371,21 @@ pub fn tables(
     Ok([runs?, series?])
 }
 
+/// [`tables`] of a finished batch and, when `traced`, its trace table, built side by side.
+pub fn tables_and_trace(
+    batch: &Batch,
+    seeds: u64,
+    names: &[String],
+    profiles: &[usize],
+    traced: bool,
+) -> Result<([RecordBatch; 2], Option<RecordBatch>), OutputError> {
+    let (tables, trace) = rayon::join(
+        || tables(batch, seeds, names, profiles),
+        || traced.then(|| output::trace_batch(batch)),
+    );
+    Ok((tables?, trace.transpose()?))
+}
+
 /// A runs.parquet and a series.parquet (and, when traced, a trace.parquet) being written side
 /// by side in one folder, batch by batch, each under a temporary name until
 /// [`Tables::finish`]. All carry the same run id, so a reader can tell they belong together.
@@ -434,13 +449,10 @@ impl Writer for Tables {
 
     fn write(&mut self, batch: &Batch, profiles: &[usize]) -> Result<(), OutputError> {
         let traced = self.trace.is_some();
-        let (tables, trace) = rayon::join(
-            || tables(batch, self.seeds, &self.names, profiles),
-            || traced.then(|| output::trace_batch(batch)),
-        );
-        let [runs, series] = tables?;
+        let ([runs, series], trace) =
+            tables_and_trace(batch, self.seeds, &self.names, profiles, traced)?;
         if let (Some(sink), Some(trace)) = (&mut self.trace, trace) {
-            sink.write(&trace?)?;
+            sink.write(&trace)?;
         }
         self.runs.write(&runs)?;
         self.series.write(&series)

@@ -183,13 +183,8 @@ impl pipeline::Writer for Parts<'_> {
         let (first, last) = (indices.clone().min(), indices.max());
         let name = store::part_name(first.unwrap_or(0), last.unwrap_or(0), sweep.runs());
         let seeds = u64::from(sweep.seeds);
-        let traced = self.trace;
-        let (tables, trace) = rayon::join(
-            || pipeline::tables(batch, seeds, &sweep.profile_names, profiles),
-            || traced.then(|| output::trace_batch(batch)),
-        );
-        let [runs, series] = tables?;
-        let trace = trace.transpose()?;
+        let ([runs, series], trace) =
+            pipeline::tables_and_trace(batch, seeds, &sweep.profile_names, profiles, self.trace)?;
         store::write_part(
             self.dir,
             &name,
