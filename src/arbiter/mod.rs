@@ -154,7 +154,9 @@ pub enum Draw {
     /// `combine = mix`: both experts infer; the softmax of P(MB) Q_MB + (1 - P(MB)) Q_MF.
     Mix,
     /// A vector the rule builds per action ([`Arbiter::action_values`]): MF always infers, MB
-    /// iff [`Choice::use_mb`] (SPEC 12.4).
+    /// iff [`Choice::use_mb`] (SPEC 12.4). [`Choice::p_mb`] is the share of actions MB values,
+    /// so 1 means every one (the step then draws from MB's softmax as folded, and with no
+    /// action by MB from MF's).
     PerAction,
 }
 
