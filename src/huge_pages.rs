@@ -99,7 +99,9 @@ mod tests {
 
     #[test]
     fn a_large_allocation_is_backed_by_huge_pages_and_keeps_its_contents() {
-        let bytes = 4 * ADVISED_FROM;
+        // Above glibc's largest mapping threshold (32 MiB), so the block is mapped afresh, never
+        // heap memory an earlier test touched (already backed by small pages).
+        let bytes = 40 << 20;
         let layout = Layout::from_size_align(bytes, 8).expect("a valid layout");
         // SAFETY: the layout is not zero-sized; the memory is freed with the same layout.
         let pointer = unsafe { HugePageSystem.alloc_zeroed(layout) };
@@ -121,7 +123,7 @@ mod tests {
         unsafe { HugePageSystem.dealloc(pointer, layout) };
         match thp_mode().as_deref() {
             // Asked for, the kernel backs at least one of the whole huge pages inside (it may
-            // fall back to small pages for some when memory is fragmented, never for all of 6).
+            // fall back to small pages for some when memory is fragmented, not for all of 19).
             Some("madvise" | "always") => {
                 let kib = huge.expect("the allocation's mapping in /proc/self/smaps");
                 assert!(
