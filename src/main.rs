@@ -2,9 +2,9 @@
 //! usage errors, 1 for runtime failures).
 
 use std::alloc::{GlobalAlloc, Layout};
+use std::io::Write as _;
 
 use mbmf::huge_pages::HugePageSystem;
-use std::io::Write as _;
 
 mod cli;
 
