@@ -563,12 +563,19 @@ fn decide<A: Arbiter, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
     }
     if A::RUNS_MB && (choice.use_mb || both) {
         let started = wallclock.then(Instant::now);
-        // Only value iteration writes the MB's Q table, so its cached row maxima stay valid.
-        let report = run.model.value_iteration_cached(
+        // Only value iteration writes the MB's Q table, so its cached row maxima stay valid;
+        // without a human, a state whose row it changed must compute MB's softmax again.
+        let settled = &mut *run.settled;
+        let report = run.model.value_iteration_noting(
             run.q_mb,
             params.gamma_mb,
             params.vi_epsilon,
             params.vi_max_sweeps,
+            |changed| {
+                if !HUMAN {
+                    settled[changed].q_changed(Expert::Mb);
+                }
+            },
         );
         cost_mb = match started {
             Some(t) => t.elapsed().as_secs_f64(),
@@ -581,11 +588,6 @@ fn decide<A: Arbiter, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
         // bool-to-integer add whose bool is branched on again (a minimal repro counts 0).
         if report.capped {
             run.stats.vi_capped += 1;
-        }
-        if !HUMAN && report.changed {
-            for flags in run.settled.iter_mut() {
-                flags.q_changed(Expert::Mb);
-            }
         }
     }
 

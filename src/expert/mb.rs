@@ -360,6 +360,20 @@ impl Model<'_> {
         epsilon: f64,
         max_sweeps: u32,
     ) -> ViReport {
+        self.value_iteration_noting(q, gamma, epsilon, max_sweeps, |_| {})
+    }
+
+    /// [`value_iteration_cached`](Model::value_iteration_cached), calling `row_changed(s)`
+    /// whenever a value of row `s` of `q` changes (bit for bit), so that what was computed from
+    /// the other rows can be kept: at steady state a call changes a few rows, if any.
+    pub fn value_iteration_noting(
+        &mut self,
+        q: &mut [f64],
+        gamma: f64,
+        epsilon: f64,
+        max_sweeps: u32,
+        mut row_changed: impl FnMut(usize),
+    ) -> ViReport {
         let obs = self.obs;
         let n_actions = obs.n_actions;
         let n_pairs = obs.n_states * n_actions;
@@ -406,6 +420,7 @@ impl Model<'_> {
                     let before = row_max(self.best, q, s, n_actions);
                     q[sa] = value;
                     report.changed = true;
+                    row_changed(s);
                     // The new maximum without rereading the row when the changed entry decides
                     // it: a larger value is the new maximum; an entry below the maximum left it
                     // in place. Otherwise (the maximum itself fell, ties, NaN) reread the row.
@@ -835,9 +850,23 @@ mod tests {
                 .view()
                 .learn(window_n, s, a, next as usize, r, spec.arrival[o].terminal());
             if step % every == 0 {
-                let inc = owned
-                    .view()
-                    .value_iteration_cached(&mut q_inc, gamma, epsilon, max_sweeps);
+                let before = q_inc.clone();
+                let mut noted = vec![false; spec.n_states];
+                let inc = owned.view().value_iteration_noting(
+                    &mut q_inc,
+                    gamma,
+                    epsilon,
+                    max_sweeps,
+                    |s| noted[s] = true,
+                );
+                // The rows noted are exactly those whose values changed.
+                for (s, &noted) in noted.iter().enumerate() {
+                    let row = s * spec.n_actions..(s + 1) * spec.n_actions;
+                    let changed = (q_inc[row.clone()].iter().zip(&before[row]))
+                        .any(|(x, y)| x.to_bits() != y.to_bits());
+                    assert_eq!(noted, changed, "{} step {step}: row {s}", spec.name);
+                }
+                assert_eq!(inc.changed, noted.contains(&true));
                 let reference =
                     value_iteration_reference(&owned, spec, &mut q_ref, gamma, epsilon, max_sweeps);
                 assert_eq!(inc, reference, "{} step {step}: reports differ", spec.name);
