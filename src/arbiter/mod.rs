@@ -51,13 +51,11 @@ pub struct Inputs<'a> {
     pub n_actions: usize,
     /// The state.
     pub state: usize,
-    /// MF per-state inference cost average in the state.
-    pub cost_mf: f64,
-    /// MB per-state inference cost average in the state.
-    pub cost_mb: f64,
     /// The rule's own state.
     pub own: Own<'a>,
     pub(crate) row: Range<usize>,
+    pub(crate) costs_mf: &'a [f64],
+    pub(crate) costs_mb: &'a [f64],
     pub(crate) q_mf: &'a [f64],
     pub(crate) pavg_mf: &'a [f64],
     pub(crate) pavg_mb: &'a [f64],
@@ -67,6 +65,19 @@ pub struct Inputs<'a> {
 }
 
 impl Inputs<'_> {
+    /// MF's per-state inference cost average in the state (read only by rules that weigh it:
+    /// a decision of any other rule loads nothing).
+    #[inline(always)]
+    pub fn cost_mf(&self) -> f64 {
+        self.costs_mf[self.state]
+    }
+
+    /// MB's per-state inference cost average in the state.
+    #[inline(always)]
+    pub fn cost_mb(&self) -> f64 {
+        self.costs_mb[self.state]
+    }
+
     /// The MF expert's Q row in the state. Only for a rule that runs MF.
     #[inline(always)]
     pub fn q_mf(&self) -> &[f64] {

@@ -356,7 +356,10 @@ fn act<
         && human.interaction == Interaction::Congratulation
         && params.congratulation_effect == CongratulationEffect::Reward;
     let learned = if shaped { reward + human.zeta } else { reward };
-    run.bonus[sa] = if shaped { 0 } else { g };
+    // Without a human, G stays 0 from the start.
+    if HUMAN {
+        run.bonus[sa] = if shaped { 0 } else { g };
+    }
 
     // 8. Learning, by every expert the rule runs (after the rule has seen the transition). The arrival is
     // terminal when the world at this time says so (SPEC 10): both experts learn that from the transition itself.
@@ -526,13 +529,13 @@ fn decide<A: Arbiter, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
         params,
         n_actions: n_a,
         state: s,
-        cost_mf: run.cost_mf[s],
-        cost_mb: run.cost_mb[s],
         own: Own {
             run: run.arbiter_run,
             pairs: run.arbiter_pairs,
         },
         row: row.clone(),
+        costs_mf: run.cost_mf,
+        costs_mb: run.cost_mb,
         q_mf: run.q_mf,
         pavg_mf: run.pavg_mf,
         pavg_mb: run.pavg_mb,
