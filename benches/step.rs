@@ -7,9 +7,9 @@
 //!   1 or 2 threads: the engine's overhead per run and its scaling across cores.
 //! - `naive/<controller>` against `engine/<controller>`: one whole tidy1 run (11,000 steps) by the
 //!   naive reference of `tests/naive` and by the batch engine (one run, one thread).
-//! - `rules/<env>/<controller>`: the arbitration rules of SPEC 12 (`fixed`, `reliability`, `vpi`,
-//!   and `ec`, `fixed`, `reliability` with `combine = mix`) beside `ec`, on tidy1 and twostep,
-//!   64 runs on one thread, steady state (twostep's 402-step runs: the whole run).
+//! - `rules/<env>/<controller>`: every rule of SPEC 4 and 12, and `combine = mix` wherever it
+//!   applies (`<controller>-mix`), on tidy1, tidy2, the navigation world and twostep, 64 runs on
+//!   one thread, steady state (twostep's 402-step runs: the whole run).
 //!
 //! Run: `cargo bench --bench step` (add a filter such as `-- step/tidy1/ec` to select).
 
@@ -139,26 +139,35 @@ fn naive_baseline(c: &mut Criterion) {
 
 fn rules(c: &mut Criterion) {
     let one = common::pool(1);
-    for label in ["tidy1", "twostep"] {
-        let spec = Arc::new(mbmf::env::load(label).expect("built in"));
+    let mut envs = common::environments();
+    envs.push((
+        "twostep",
+        Arc::new(mbmf::env::load("twostep").expect("built in")),
+    ));
+    // Every rule, then `combine = mix` wherever it applies.
+    let rules: Vec<(Controller, Combine)> = Controller::ALL
+        .into_iter()
+        .map(|c| (c, Combine::Select))
+        .chain(
+            Controller::ALL
+                .into_iter()
+                .filter(|c| c.combines())
+                .map(|c| (c, Combine::Mix)),
+        )
+        .collect();
+    for (label, spec) in envs {
         let mut group = c.benchmark_group(format!("rules/{label}"));
         group.sampling_mode(SamplingMode::Flat);
-        for (controller, combine) in [
-            (Controller::Ec, Combine::Select),
-            (Controller::Fixed, Combine::Select),
-            (Controller::Reliability, Combine::Select),
-            (Controller::Vpi, Combine::Select),
-            (Controller::Ec, Combine::Mix),
-            (Controller::Fixed, Combine::Mix),
-            (Controller::Reliability, Combine::Mix),
-        ] {
+        for &(controller, combine) in &rules {
             let params = mbmf::params::Params {
                 combine,
-                babbling: mbmf::env::registry::default_babbling(label),
+                babbling: mbmf::env::registry::default_babbling(&spec.name),
                 ..common::params(&spec, controller)
             };
             let total = u64::from(params.babbling) + u64::from(params.steps);
-            let window = 1000.min(total);
+            // The navigation world's MB plans over stochastic outcomes (about 50 k steps/s):
+            // a shorter window keeps each benchmark within seconds.
+            let window = if label == "nav" { 250 } else { 1000 }.min(total);
             let template = common::prepared(&spec, params, RUNS, total - window, 2);
             let name = match combine {
                 Combine::Select => controller.name().to_string(),

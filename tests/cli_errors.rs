@@ -814,6 +814,18 @@ fn outputs_and_special_inputs_are_checked_before_any_work() {
             vec!["sweep file /dev/zero is a device, pipe or socket"],
         ),
         ("sweep {dir} --out {dir}/o", vec!["is a folder"]),
+        // A task to time is loaded before anything is measured.
+        (
+            "bench --task tidy9 --out {dir}/b",
+            vec![
+                "--task tidy9: unknown task 'tidy9'",
+                "expected tidy1, tidy2, grid:N, json:PATH",
+            ],
+        ),
+        (
+            "bench --task json:{dir}/none.json --out {dir}/b",
+            vec!["--task json:{dir}/none.json: cannot read {dir}/none.json"],
+        ),
     ];
     if fifo {
         cases.push((

@@ -279,6 +279,11 @@ macro_rules! arbiters {
                 match self { $(Controller::$variant => <$module::$ty as Arbiter>::FIRST_DECISION_BOTH),* }
             }
 
+            /// Whether `combine = mix` applies to the controller (it gives a weight).
+            pub fn combines(self) -> bool {
+                match self { $(Controller::$variant => <$module::$ty as Arbiter>::COMBINES),* }
+            }
+
             /// Whether the MF expert runs (infers, computes its softmax, learns).
             pub fn runs_mf(self) -> bool {
                 match self { $(Controller::$variant => <$module::$ty as Arbiter>::RUNS_MF),* }

@@ -33,6 +33,10 @@ pub struct BenchArgs {
     /// for scripts that track the figures over time.
     #[arg(long)]
     pub json: bool,
+    /// Also time every rule on TASK (any --task of mbmf run, for example the authors'
+    /// navigation world as json:PATH), beside tidy1, tidy2 and twostep. Repeatable.
+    #[arg(long = "task", value_name = "TASK")]
+    pub tasks: Vec<String>,
 }
 
 /// Runs `mbmf bench`.
@@ -51,6 +55,16 @@ pub fn command(args: &BenchArgs) -> Result<(), Failure> {
              growth.csv in --out: run it without --json"
         )));
     }
+    // Every task is loaded before anything is timed, so a bad one is refused at once.
+    let mut tasks = Vec::new();
+    for task in RULE_TASKS
+        .iter()
+        .map(|t| t.to_string())
+        .chain(args.tasks.clone())
+    {
+        let spec = env::load(&task).map_err(|e| usage(anyhow!("--task {task}: {e}")))?;
+        tasks.push((task, Arc::new(spec)));
+    }
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
     let mut report = Report {
         text: !args.json,
@@ -62,7 +76,7 @@ pub fn command(args: &BenchArgs) -> Result<(), Failure> {
         "mbmf bench: {} thread(s) available; medians of timed windows, setup not timed",
         cores
     );
-    let memory = headline(cores, &mut report).map_err(runtime)?;
+    let memory = headline(cores, &tasks, &mut report).map_err(runtime)?;
     if args.json {
         let rates: Vec<serde_json::Value> = report
             .rates
@@ -135,9 +149,12 @@ fn tidy1_params(controller: Controller) -> Params {
     }
 }
 
+/// The tasks every rule is timed on, before those `--task` adds.
+const RULE_TASKS: [&str; 3] = ["tidy1", "tidy2", "twostep"];
+
 /// One measured rate: agent-steps per second at steady state.
 struct Rate {
-    task: &'static str,
+    task: String,
     controller: Controller,
     combine: Combine,
     runs: usize,
@@ -176,7 +193,11 @@ macro_rules! say {
 }
 use say;
 
-fn headline(cores: usize, report: &mut Report) -> anyhow::Result<crate::bench::Memory> {
+fn headline(
+    cores: usize,
+    tasks: &[(String, Arc<env::Spec>)],
+    report: &mut Report,
+) -> anyhow::Result<crate::bench::Memory> {
     let spec = Arc::new(env::load("tidy1")?);
     say!(report);
     say!(
@@ -205,7 +226,7 @@ fn headline(cores: usize, report: &mut Report) -> anyhow::Result<crate::bench::M
             thousands(rate)
         );
         report.rates.push(Rate {
-            task: "tidy1",
+            task: "tidy1".to_string(),
             controller,
             combine: Combine::Select,
             runs,
@@ -214,26 +235,36 @@ fn headline(cores: usize, report: &mut Report) -> anyhow::Result<crate::bench::M
         });
     }
 
-    // The arbitration rules of SPEC 12 beside EC, on both tidy tasks and on the two-step task
-    // (whose runs are 402 steps: the window is the whole run). The navigation world is the
-    // authors' data, outside the repository: `mbmf run` on its file measures it.
-    for task in ["tidy1", "tidy2", "twostep"] {
-        let spec = Arc::new(env::load(task)?);
+    // Every rule of SPEC 4 and 12, and `combine = mix` where it applies, on each task (the
+    // two-step task's runs are 402 steps: the window is the whole run), beside EC, timed first.
+    let rules: Vec<(Controller, Combine)> = std::iter::once(Controller::Ec)
+        .chain(Controller::ALL.into_iter().filter(|&c| c != Controller::Ec))
+        .map(|c| (c, Combine::Select))
+        .chain(
+            Controller::ALL
+                .into_iter()
+                .filter(|c| c.combines())
+                .map(|c| (c, Combine::Mix)),
+        )
+        .collect();
+    for (k, (task, spec)) in tasks.iter().enumerate() {
+        // A task of --task may be far larger than the built-in ones (the navigation world's MB
+        // plans over stochastic outcomes at every step): fewer runs keep its table to seconds.
+        let runs = if k < RULE_TASKS.len() { 1024 } else { 64 };
         say!(report);
         say!(
             report,
-            "{task}, steady state, one thread, 1024 runs (SPEC 12's rules):"
+            "{task}, steady state, one thread, {runs} runs, every rule:"
         );
-        say!(report, "  {:<16} {:>16}", "controller", "steps/s");
-        for (controller, combine) in [
-            (Controller::Ec, Combine::Select),
-            (Controller::Fixed, Combine::Select),
-            (Controller::Reliability, Combine::Select),
-            (Controller::Vpi, Combine::Select),
-            (Controller::Ec, Combine::Mix),
-            (Controller::Fixed, Combine::Mix),
-            (Controller::Reliability, Combine::Mix),
-        ] {
+        say!(
+            report,
+            "  {:<20} {:>16} {:>14}",
+            "controller",
+            "steps/s",
+            "time / ec's"
+        );
+        let mut ec_rate = f64::NAN;
+        for &(controller, combine) in &rules {
             let params = Params {
                 controller,
                 combine,
@@ -241,17 +272,25 @@ fn headline(cores: usize, report: &mut Report) -> anyhow::Result<crate::bench::M
                 babbling: env::registry::default_babbling(task),
                 ..Params::default()
             };
-            let rate = steady_rate(&spec, params, 1024, &[1], 1000, 5)?[0];
+            let rate = steady_rate(spec, params, runs, &[1], 1000, 5)?[0];
+            if (controller, combine) == (Controller::Ec, Combine::Select) {
+                ec_rate = rate;
+            }
             let name = match combine {
                 Combine::Select => controller.name().to_string(),
                 Combine::Mix => format!("{} (mix)", controller.name()),
             };
-            say!(report, "  {name:<16} {:>16}", thousands(rate));
+            say!(
+                report,
+                "  {name:<20} {:>16} {:>13.2}x",
+                thousands(rate),
+                ec_rate / rate
+            );
             report.rates.push(Rate {
-                task,
+                task: task.clone(),
                 controller,
                 combine,
-                runs: 1024,
+                runs,
                 threads: 1,
                 steps_per_s: rate,
             });
@@ -277,7 +316,7 @@ fn headline(cores: usize, report: &mut Report) -> anyhow::Result<crate::bench::M
             rate / rates[0]
         );
         report.rates.push(Rate {
-            task: "tidy1",
+            task: "tidy1".to_string(),
             controller: Controller::Ec,
             combine: Combine::Select,
             runs,
