@@ -112,7 +112,12 @@ pub fn by_values(inputs: &mut Inputs<'_>, with_cost: bool) -> Choice {
 pub fn values(inputs: &mut Inputs<'_>, with_cost: bool) -> (f64, (f64, f64), (f64, f64)) {
     let (bits_mf, bits_mb) = (inputs.bits_mf(), inputs.bits_mb());
     let params = inputs.params;
-    let (cost_mf, cost_mb, n) = (inputs.cost_mf(), inputs.cost_mb(), inputs.n_actions);
+    let n = inputs.n_actions;
+    let (cost_mf, cost_mb) = if with_cost {
+        (inputs.cost_mf(), inputs.cost_mb())
+    } else {
+        (0.0, 0.0)
+    };
     let (v_mf, v_mb) = values_from_bits(params, with_cost, bits_mf, bits_mb, n, cost_mf, cost_mb);
     let p_mb = p_mb_softmax(v_mf, v_mb, params.tau);
     (p_mb, (v_mf, v_mb), (bits_mf, bits_mb))

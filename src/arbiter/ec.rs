@@ -7,6 +7,7 @@ pub struct Ec;
 
 impl Arbiter for Ec {
     const COMBINES: bool = true;
+    const WEIGHS_COST: bool = true;
 
     #[inline(always)]
     fn weight(inputs: &mut Inputs<'_>) -> f64 {

@@ -16,6 +16,7 @@ impl<A: Arbiter> Arbiter for Mixed<A> {
     const OBSERVES: bool = A::OBSERVES;
     const DRAW: Draw = Draw::Mix;
     const LEARNS_MF: bool = A::LEARNS_MF;
+    const WEIGHS_COST: bool = A::WEIGHS_COST;
 
     fn run_scalars(params: &Params) -> usize {
         A::run_scalars(params)

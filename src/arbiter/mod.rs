@@ -65,8 +65,8 @@ pub struct Inputs<'a> {
 }
 
 impl Inputs<'_> {
-    /// MF's per-state inference cost average in the state (read only by rules that weigh it:
-    /// a decision of any other rule loads nothing).
+    /// MF's per-state inference cost average in the state. Kept up to date only for a rule
+    /// that says it weighs costs ([`Arbiter::WEIGHS_COST`]).
     #[inline(always)]
     pub fn cost_mf(&self) -> f64 {
         self.costs_mf[self.state]
@@ -189,6 +189,9 @@ pub trait Arbiter {
     const COMBINES: bool = false;
     /// Whether [`learn_mf`](Arbiter::learn_mf) replaces the MF expert's Q-learning.
     const LEARNS_MF: bool = false;
+    /// Whether the rule reads the per-state inference cost averages ([`Inputs::cost_mf`],
+    /// [`Inputs::cost_mb`]): only then does the step keep them up to date.
+    const WEIGHS_COST: bool = false;
 
     /// Scalars the rule keeps per run (SPEC 12.3's P_MB), in [`Own::run`].
     fn run_scalars(_params: &Params) -> usize {

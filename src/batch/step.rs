@@ -562,7 +562,9 @@ fn decide<A: Arbiter, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
             Some(t) => t.elapsed().as_secs_f64(),
             None => mf::inference_ops(n_a) as f64,
         };
-        run.cost_mf[s] = ema(run.cost_mf[s], cost_mf, params.filter_alpha);
+        if A::WEIGHS_COST {
+            run.cost_mf[s] = ema(run.cost_mf[s], cost_mf, params.filter_alpha);
+        }
     }
     if A::RUNS_MB && (choice.use_mb || both) {
         let started = wallclock.then(Instant::now);
@@ -584,7 +586,9 @@ fn decide<A: Arbiter, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
             Some(t) => t.elapsed().as_secs_f64(),
             None => report.ops as f64,
         };
-        run.cost_mb[s] = ema(run.cost_mb[s], cost_mb, params.filter_alpha);
+        if A::WEIGHS_COST {
+            run.cost_mb[s] = ema(run.cost_mb[s], cost_mb, params.filter_alpha);
+        }
         run.stats.vi_calls += 1;
         run.stats.vi_sweeps += u64::from(report.sweeps);
         // NOTE: `if`, not `+= u64::from(bool)`: rustc 1.95 at opt-level >= 2 miscompiles a
