@@ -291,6 +291,18 @@ impl Model<'_> {
         let ring = &mut self.ring[sa * cap..sa * cap + window_n];
         let pos = self.ring_pos[sa] as usize;
         let kept = &mut self.ring_len[sa];
+        // The outcome that leaves a full window is the one that arrives, with the reward and
+        // end it had: the pair's terms (Eq. 2) are unchanged, so its Q value needs no update.
+        let same = (*kept as usize) == window_n
+            && first + ring[pos] as usize == outcome
+            && self.reward[outcome].to_bits() == r.to_bits()
+            && self.terminal[outcome] == terminal;
+        // The ring cursor wraps by a comparison: a division per learned step costs more.
+        let after = pos + 1;
+        self.ring_pos[sa] = if after == window_n { 0 } else { after as u16 };
+        if same {
+            return;
+        }
         if (*kept as usize) < window_n {
             *kept += 1;
         } else {
@@ -306,9 +318,6 @@ impl Model<'_> {
             *self.active_terms += 1;
         }
         *count += 1;
-        // The ring cursor wraps by a comparison: a division per learned step costs more.
-        let after = pos + 1;
-        self.ring_pos[sa] = if after == window_n { 0 } else { after as u16 };
         self.reward[outcome] = r;
         self.terminal[outcome] = terminal;
         self.known[s] = true;
