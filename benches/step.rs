@@ -144,17 +144,7 @@ fn rules(c: &mut Criterion) {
         "twostep",
         Arc::new(mbmf::env::load("twostep").expect("built in")),
     ));
-    // Every rule, then `combine = mix` wherever it applies.
-    let rules: Vec<(Controller, Combine)> = Controller::ALL
-        .into_iter()
-        .map(|c| (c, Combine::Select))
-        .chain(
-            Controller::ALL
-                .into_iter()
-                .filter(|c| c.combines())
-                .map(|c| (c, Combine::Mix)),
-        )
-        .collect();
+    let rules = mbmf::bench::every_rule();
     for (label, spec) in envs {
         let mut group = c.benchmark_group(format!("rules/{label}"));
         group.sampling_mode(SamplingMode::Flat);

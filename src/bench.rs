@@ -12,7 +12,7 @@ use std::time::Instant;
 use crate::batch::{Batch, RunConfig};
 use crate::env::{self, Spec};
 use crate::error::IoError;
-use crate::params::{ConfigError, Controller, Params};
+use crate::params::{Combine, ConfigError, Controller, Params};
 use crate::plot::{LineChart, PlotError, Series, line_chart};
 
 /// Why a measurement could not be made or written. None is a usage error: the CLI checks its
@@ -51,6 +51,21 @@ impl crate::error::Usage for BenchError {
     fn is_usage(&self) -> bool {
         false
     }
+}
+
+/// Every rule of SPEC 4 and 12 with `select`, `ec` first (the others are read against it),
+/// then `combine = mix` wherever it applies: what `mbmf bench` and the criterion benches time.
+pub fn every_rule() -> Vec<(Controller, Combine)> {
+    std::iter::once(Controller::Ec)
+        .chain(Controller::ALL.into_iter().filter(|&c| c != Controller::Ec))
+        .map(|c| (c, Combine::Select))
+        .chain(
+            Controller::ALL
+                .into_iter()
+                .filter(|c| c.combines())
+                .map(|c| (c, Combine::Mix)),
+        )
+        .collect()
 }
 
 /// Master seed of every input of `mbmf bench`.

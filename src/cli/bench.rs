@@ -237,16 +237,7 @@ fn headline(
 
     // Every rule of SPEC 4 and 12, and `combine = mix` where it applies, on each task (the
     // two-step task's runs are 402 steps: the window is the whole run), beside EC, timed first.
-    let rules: Vec<(Controller, Combine)> = std::iter::once(Controller::Ec)
-        .chain(Controller::ALL.into_iter().filter(|&c| c != Controller::Ec))
-        .map(|c| (c, Combine::Select))
-        .chain(
-            Controller::ALL
-                .into_iter()
-                .filter(|c| c.combines())
-                .map(|c| (c, Combine::Mix)),
-        )
-        .collect();
+    let rules = crate::bench::every_rule();
     for (k, (task, spec)) in tasks.iter().enumerate() {
         // A task of --task may be far larger than the built-in ones (the navigation world's MB
         // plans over stochastic outcomes at every step): fewer runs keep its table to seconds.
