@@ -717,6 +717,29 @@ mod tests {
     }
 
     #[test]
+    fn a_transition_that_leaves_a_full_window_as_it_was_marks_nothing() {
+        let spec = toy();
+        let mut owned = OwnedModel::new(&spec, 2);
+        let mut m = owned.view();
+        m.learn(2, 0, 0, 1, 0.0, false);
+        m.learn(2, 0, 0, 1, 0.0, false);
+        let mut q = vec![0.0; 3];
+        m.value_iteration_cached(&mut q, 0.9, 1e-9, 100);
+        assert!(m.dirty.iter().all(|&w| w == 0));
+        // The window is full of s1: s1 again, same reward and end, changes no term.
+        m.learn(2, 0, 0, 1, 0.0, false);
+        assert!(m.dirty.iter().all(|&w| w == 0));
+        // Another reward for it does, and so does another outcome (after which the window
+        // keeps s1, s2: T = 1/2 each).
+        m.learn(2, 0, 0, 1, 2.0, false);
+        assert_ne!(m.dirty[0], 0);
+        m.value_iteration_cached(&mut q, 0.9, 1e-9, 100);
+        m.learn(2, 0, 0, 2, 0.0, true);
+        assert_ne!(m.dirty[0], 0);
+        assert!((m.probability(0, 1) - 0.5).abs() < 1e-15);
+    }
+
+    #[test]
     fn reward_model_weights_the_last_reward_of_each_outcome() {
         let spec = toy();
         let mut owned = OwnedModel::new(&spec, 10);
