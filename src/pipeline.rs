@@ -191,7 +191,8 @@ pub fn simulate<E: From<ConfigError> + From<MemoryError> + Send>(
 /// one idle: at most two batches exist, the one simulated and the one waiting for or being
 /// handed over, and only when the memory a batch may take holds two (otherwise the finished
 /// batch is handed over first, as one thread would). Batches are handed over in order; the
-/// next batch is allocated beside the hand-over too.
+/// next batch is allocated beside the hand-over too, in the memory of the batch handed over
+/// before (its pages already mapped: a fresh batch's first touch of each page is a fault).
 fn batches<E>(
     spec: &Arc<Spec>,
     configs: &[RunConfig],
@@ -216,30 +217,36 @@ where
     let overlap = limits::memory().is_none_or(|b| largest.saturating_mul(2) <= b.batch_share());
     // A finished batch and the position of its first run, not handed over yet.
     let mut waiting: Option<(Batch, usize)> = None;
+    // A batch handed over, whose memory the next batch may take.
+    let mut spare: Option<Batch> = None;
     for (k, chunk) in configs.chunks(size).enumerate() {
         let which = run_schedule
             .get(k * size..k * size + chunk.len())
             .unwrap_or(&[]);
         if !overlap && let Some((done, first)) = waiting.take() {
             on_batch(&done, first)?;
+            spare = Some(done);
         }
         reserve(bytes_of(chunk), chunk.len())?;
+        let recycled = spare.take();
         // A failed hand-over stops the simulation beside it at its next stride.
         let failed = AtomicBool::new(false);
         let (handed, simulated) = rayon::join(
             || {
                 let Some((done, first)) = waiting.take() else {
-                    return Ok(());
+                    return Ok(None);
                 };
-                let handed = on_batch(&done, first);
-                if handed.is_err() {
-                    failed.store(true, Ordering::Relaxed);
+                match on_batch(&done, first) {
+                    Ok(()) => Ok(Some(done)),
+                    Err(e) => {
+                        failed.store(true, Ordering::Relaxed);
+                        Err(e)
+                    }
                 }
-                handed
             },
             || {
                 let mut batch =
-                    Batch::with_schedules(Arc::clone(spec), chunk.to_vec(), schedules, which)?;
+                    Batch::reusing(recycled, Arc::clone(spec), chunk.to_vec(), schedules, which)?;
                 if trace {
                     batch.record_trace();
                 }
@@ -253,7 +260,7 @@ where
                 Ok::<_, E>((batch, finished, flow))
             },
         );
-        handed?;
+        spare = handed?;
         let (batch, finished, flow) = simulated?;
         // A batch that finished is kept even when the stop came with its last stride.
         if finished {

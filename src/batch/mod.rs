@@ -196,14 +196,28 @@ impl Batch {
         schedules: &[Schedule],
         run_schedule: &[usize],
     ) -> Result<Batch, ConfigError> {
+        Batch::reusing(None, spec, configs, schedules, run_schedule)
+    }
+
+    /// [`Batch::with_schedules`] in the memory of `spare`, a batch whose results are no longer
+    /// needed, where its tables have the sizes this batch needs (else in fresh memory). Results
+    /// do not depend on it: every value of every table is written before the runs start.
+    pub fn reusing(
+        spare: Option<Batch>,
+        spec: Arc<Spec>,
+        configs: Vec<RunConfig>,
+        schedules: &[Schedule],
+        run_schedule: &[usize],
+    ) -> Result<Batch, ConfigError> {
         for config in &configs {
             crate::env::registry::check_params(&spec, &config.params)?;
         }
-        Batch::unchecked(spec, configs, schedules, run_schedule)
+        Batch::unchecked(spare, spec, configs, schedules, run_schedule)
     }
 
     /// [`Batch::with_schedules`] once each run's parameters are known to fit the task.
     fn unchecked(
+        spare: Option<Batch>,
         spec: Arc<Spec>,
         configs: Vec<RunConfig>,
         schedules: &[Schedule],
@@ -282,7 +296,7 @@ impl Batch {
             series_start.push(series_start.last().unwrap() + checkpoint_count(&config.params));
         }
         let mut batch = Batch {
-            tables: Tables::new(runs, &sizes),
+            tables: Tables::reuse_or_new(spare.map(|b| b.tables), runs, &sizes),
             sizes,
             vi_terms: vec![0; runs],
             obs,
@@ -308,11 +322,14 @@ impl Batch {
     /// other thread of the process.
     fn start_runs(&mut self) {
         let spec = Arc::clone(&self.spec);
-        self.views().into_par_iter().for_each(|(params, mut run)| {
-            // The world the run starts in: its plan's first, or the batch's.
-            let world = run.plan.map_or(&*spec, |p| &*p.worlds[0]);
-            run.start(params, world.n_actions, world.dynamics.as_ref());
-        });
+        self.views()
+            .into_par_iter()
+            .with_max_len(1)
+            .for_each(|(params, mut run)| {
+                // The world the run starts in: its plan's first, or the batch's.
+                let world = run.plan.map_or(&*spec, |p| &*p.worlds[0]);
+                run.start(params, world.n_actions, world.dynamics.as_ref());
+            });
     }
 
     /// Makes every run record the per-step trace (SPEC 14): one row per experiment step,
@@ -488,14 +505,16 @@ impl Batch {
     }
 
     /// Advances every run by up to `steps` steps (fewer where a run ends), in parallel; one rayon
-    /// task per run.
+    /// task per run, never runs folded into one task: runs differ in cost, and a thread that
+    /// finished its share would otherwise wait out another's whole chunk of runs (rayon cuts a
+    /// slice into about as many pieces as threads, and a piece once begun is not cut again).
     pub fn advance(&mut self, steps: u64) {
         let spec = Arc::clone(&self.spec);
         let spec: &Spec = &spec;
         let views = self.views();
         views
             .into_par_iter()
-            .with_min_len(1)
+            .with_max_len(1)
             .for_each(|(params, mut view)| {
                 let started = Instant::now();
                 let end = view.cursor.t.saturating_add(steps);
@@ -551,5 +570,78 @@ pub fn initial_state(spec: &Spec, rng: &mut Xoshiro256PlusPlus) -> StateId {
     match spec.initial_states.len() {
         1 => spec.initial_states[0],
         n => spec.initial_states[((uniform(rng) * n as f64) as usize).min(n - 1)],
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::params::Controller;
+
+    fn configs(controller: Controller, seeds: std::ops::Range<u64>) -> Vec<RunConfig> {
+        seeds
+            .map(|seed| RunConfig {
+                params: Params {
+                    controller,
+                    babbling: 100,
+                    steps: 600,
+                    checkpoint: 100,
+                    ..Params::default()
+                },
+                seed,
+                run_index: seed,
+            })
+            .collect()
+    }
+
+    /// Every result of every run of a finished batch but its wall time, bit for bit.
+    fn results(batch: &Batch) -> Vec<String> {
+        (0..batch.len())
+            .map(|r| {
+                let stats = RunStats {
+                    wall_time_s: 0.0,
+                    ..batch.stats()[r]
+                };
+                let bits =
+                    |a: CowArray<'_, f64, Ix2>| a.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+                format!(
+                    "{stats:?} {:?} {:?} {:?}",
+                    batch.series(r),
+                    bits(batch.q_mf(r)),
+                    bits(batch.q_mb(r))
+                )
+            })
+            .collect()
+    }
+
+    #[test]
+    fn a_batch_in_a_finished_batchs_memory_gives_the_results_of_a_fresh_one() {
+        let spec = Arc::new(crate::env::load("tidy1").unwrap());
+        let mut finished = Batch::new(Arc::clone(&spec), configs(Controller::Ec, 0..4)).unwrap();
+        finished.run_to_end();
+        let memory = finished.tables.q_mb.as_ptr();
+        let next = || configs(Controller::Ec, 10..14);
+        let mut fresh = Batch::new(Arc::clone(&spec), next()).unwrap();
+        let mut reused =
+            Batch::reusing(Some(finished), Arc::clone(&spec), next(), &[], &[]).unwrap();
+        assert_eq!(
+            reused.tables.q_mb.as_ptr(),
+            memory,
+            "the finished batch's tables are taken"
+        );
+        fresh.run_to_end();
+        reused.run_to_end();
+        assert!(fresh.stats().iter().any(|s| s.total_reward > 0.0));
+        assert_eq!(results(&fresh), results(&reused));
+
+        // Tables of other sizes (an `mf` batch holds no MB model) are not taken.
+        let others = || configs(Controller::Mf, 20..23);
+        let mut fresh = Batch::new(Arc::clone(&spec), others()).unwrap();
+        let mut reused =
+            Batch::reusing(Some(reused), Arc::clone(&spec), others(), &[], &[]).unwrap();
+        assert!(reused.tables.q_mb.is_empty());
+        fresh.run_to_end();
+        reused.run_to_end();
+        assert_eq!(results(&fresh), results(&reused));
     }
 }

@@ -63,7 +63,7 @@ impl Batch {
     /// babbling done, ready for its first experiment step.
     pub fn for_person(spec: Arc<Spec>, config: RunConfig) -> Result<Batch, ConfigError> {
         crate::env::registry::check_person(&spec, &config.params)?;
-        let mut batch = Batch::unchecked(spec, vec![config], &[], &[])?;
+        let mut batch = Batch::unchecked(None, spec, vec![config], &[], &[])?;
         batch.record_trace();
         batch.advance(u64::from(config.params.babbling));
         Ok(batch)

@@ -120,6 +120,17 @@ macro_rules! tables {
                 }
             }
 
+            /// `spare`'s arrays where each has the length `runs` runs of sizes `z` need (their
+            /// contents are stale: every element is written again before a run starts), else
+            /// [`Tables::new`]. A finished batch's arrays serve the next batch without mapping
+            /// and zeroing fresh pages, the first touch of which costs a page fault each.
+            pub(super) fn reuse_or_new(spare: Option<Tables>, runs: usize, $z: &Sizes) -> Tables {
+                match spare {
+                    Some(t) if true $(&& t.$v.len() == runs * $vlen)* $(&& t.$m.len() == runs * $mlen)* => t,
+                    _ => Tables::new(runs, $z),
+                }
+            }
+
             /// (name, bytes for all runs) of each array.
             pub(super) fn layout(&self) -> Vec<(&'static str, usize)> {
                 vec![
