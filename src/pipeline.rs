@@ -229,6 +229,8 @@ where
         }
         reserve(bytes_of(chunk), chunk.len())?;
         let recycled = spare.take();
+        // No batch follows the last: the one handed over beside it is freed there, not after.
+        let last = k * size + chunk.len() == configs.len();
         // A failed hand-over stops the simulation beside it at its next stride.
         let failed = AtomicBool::new(false);
         let (handed, simulated) = rayon::join(
@@ -237,7 +239,7 @@ where
                     return Ok(None);
                 };
                 match on_batch(&done, first) {
-                    Ok(()) => Ok(Some(done)),
+                    Ok(()) => Ok((!last).then_some(done)),
                     Err(e) => {
                         failed.store(true, Ordering::Relaxed);
                         Err(e)

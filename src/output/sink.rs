@@ -22,6 +22,14 @@ use rayon::prelude::*;
 
 use super::{OutputError, is_repeated_column, provenance};
 
+/// Rows of a data page: as many as the first batch written brings, between these bounds (the
+/// upper one parquet-rs's default). A page is compressed when it fills, and every page still
+/// open when the file closes is compressed then, after the simulation, on the job's critical
+/// path: with pages of a batch's rows, each batch's pages are compressed while the next batch
+/// is simulated, where pages of the default size left all of a small job's compression to its
+/// end. Fewer rows would cost size (each page has its header, statistics and index entries).
+const PAGE_ROWS: std::ops::RangeInclusive<usize> = 1_024..=20_000;
+
 /// A Parquet file being written under a temporary name, renamed into place by [`finish`].
 ///
 /// Rows gather into row groups of at most [`DEFAULT_MAX_ROW_GROUP_ROW_COUNT`] rows, as
@@ -114,6 +122,9 @@ impl ParquetSink {
         // repetitive parameter columns at a similar write speed.
         let mut props = WriterProperties::builder()
             .set_compression(Compression::ZSTD(ZstdLevel::default()))
+            .set_data_page_row_count_limit(
+                batch.num_rows().clamp(*PAGE_ROWS.start(), *PAGE_ROWS.end()),
+            )
             .set_key_value_metadata(Some(kv));
         // The parameter columns repeat a run's configuration on each of its rows: plain pages
         // that zstd shrinks as well as a dictionary would, without hashing every value into one
@@ -327,6 +338,34 @@ mod tests {
             336,
             "every third run has no p_mb_mean"
         );
+    }
+
+    #[test]
+    fn each_page_holds_the_rows_of_a_first_batch_so_that_pages_fill_as_batches_come() {
+        let pages = |batch_rows: usize, batches: usize| {
+            let dir = tempfile::tempdir().unwrap();
+            let path = dir.path().join("t.parquet");
+            let mut sink = ParquetSink::new(&path, vec![]);
+            for b in 0..batches {
+                sink.write(&batch((b * batch_rows) as i64, batch_rows))
+                    .unwrap();
+            }
+            sink.finish().unwrap();
+            let options = parquet::arrow::arrow_reader::ArrowReaderOptions::new()
+                .with_page_index_policy(parquet::file::metadata::PageIndexPolicy::Required);
+            let builder = ParquetRecordBatchReaderBuilder::try_new_with_options(
+                File::open(&path).unwrap(),
+                options,
+            )
+            .unwrap();
+            let index = builder.metadata().offset_index().expect("an offset index");
+            index[0][0].page_locations().len()
+        };
+        // Below parquet-rs's default of 20,000 rows a page, which would hold them all in one.
+        assert_eq!(pages(3_000, 4), 4);
+        // A tiny first batch does not cut pages of a few rows; a huge one keeps the default.
+        assert_eq!(pages(10, 300), 3);
+        assert_eq!(pages(30_000, 1), 2);
     }
 
     #[test]
