@@ -6,7 +6,7 @@
 //! in memory, and one only when two would not fit), with progress reported through a callback
 //! that can stop the work.
 
-use std::ops::ControlFlow;
+use std::ops::{ControlFlow, Range};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -219,10 +219,14 @@ where
     let mut waiting: Option<(Batch, usize)> = None;
     // A batch handed over, whose memory the next batch may take.
     let mut spare: Option<Batch> = None;
-    for (k, chunk) in configs.chunks(size).enumerate() {
-        let which = run_schedule
-            .get(k * size..k * size + chunk.len())
-            .unwrap_or(&[]);
+    let cuts = cuts(
+        configs.len(),
+        size,
+        overlap && rayon::current_num_threads() > 1,
+    );
+    for range in cuts {
+        let (chunk, start) = (&configs[range.clone()], range.start);
+        let which = run_schedule.get(range.clone()).unwrap_or(&[]);
         if !overlap && let Some((done, first)) = waiting.take() {
             on_batch(&done, first)?;
             spare = Some(done);
@@ -230,7 +234,7 @@ where
         reserve(bytes_of(chunk), chunk.len())?;
         let recycled = spare.take();
         // No batch follows the last: the one handed over beside it is freed there, not after.
-        let last = k * size + chunk.len() == configs.len();
+        let last = range.end == configs.len();
         // A failed hand-over stops the simulation beside it at its next stride.
         let failed = AtomicBool::new(false);
         let (handed, simulated) = rayon::join(
@@ -266,7 +270,7 @@ where
         let (batch, finished, flow) = simulated?;
         // A batch that finished is kept even when the stop came with its last stride.
         if finished {
-            waiting = Some((batch, k * size));
+            waiting = Some((batch, start));
         }
         if flow.is_break() {
             if let Some((done, first)) = waiting.take() {
@@ -280,6 +284,30 @@ where
     }
     Ok(ControlFlow::Continue(()))
 }
+
+/// The runs of each batch of a job of `runs` runs: `size` at a time, except that when batches
+/// overlap (`overlap`) a last batch of at least twice [`MIN_HALVED_BATCH`] runs is cut in two:
+/// the hand-over of the last batch, after every simulation, is the job's serial tail.
+fn cuts(runs: usize, size: usize, overlap: bool) -> Vec<Range<usize>> {
+    let size = size.max(1);
+    let mut cuts: Vec<Range<usize>> = (0..runs)
+        .step_by(size)
+        .map(|start| start..(start + size).min(runs))
+        .collect();
+    if overlap && cuts.len() > 1 {
+        let last = cuts.pop().expect("more than one");
+        if last.len() >= 2 * MIN_HALVED_BATCH {
+            let middle = last.start + last.len() / 2;
+            cuts.extend([last.start..middle, middle..last.end]);
+        } else {
+            cuts.push(last);
+        }
+    }
+    cuts
+}
+
+/// Fewest runs of each half of a last batch cut in two by [`cuts`].
+const MIN_HALVED_BATCH: usize = 64;
 
 /// Advances `batch` (the runs `chunk`) to its end, a stride at a time, telling `progress` the
 /// agent-steps of each stride; whether it finished, and the flow `progress` last returned.
@@ -443,13 +471,20 @@ impl Tables {
     }
 
     /// Completes every file; returns the paths of runs and series, and of the trace when
-    /// written.
+    /// written. The files are completed side by side: each compresses its last pages, writes
+    /// its footer and waits for its sync, after the simulation.
     pub fn finish_all(self) -> Result<([PathBuf; 2], Option<PathBuf>), OutputError> {
-        let trace = match self.trace {
-            Some(t) => Some(t.finish()?),
-            None => None,
-        };
-        Ok(([self.runs.finish()?, self.series.finish()?], trace))
+        let Tables {
+            runs,
+            series,
+            trace,
+            ..
+        } = self;
+        let (trace, (runs, series)) = rayon::join(
+            || trace.map(ParquetSink::finish).transpose(),
+            || rayon::join(|| runs.finish(), || series.finish()),
+        );
+        Ok(([runs?, series?], trace?))
     }
 }
 
@@ -460,11 +495,16 @@ impl Writer for Tables {
         let traced = self.trace.is_some();
         let ([runs, series], trace) =
             tables_and_trace(batch, self.seeds, &self.names, profiles, traced)?;
-        if let (Some(sink), Some(trace)) = (&mut self.trace, trace) {
-            sink.write(&trace)?;
-        }
-        self.runs.write(&runs)?;
-        self.series.write(&series)
+        // Side by side: each file's columns are encoded in parallel already, but a table of
+        // few columns leaves a thread idle.
+        let (traced, (runs, series)) = rayon::join(
+            || match (&mut self.trace, trace) {
+                (Some(sink), Some(trace)) => sink.write(&trace),
+                _ => Ok(()),
+            },
+            || rayon::join(|| self.runs.write(&runs), || self.series.write(&series)),
+        );
+        traced.and(runs).and(series)
     }
 
     fn traces(&self) -> bool {
@@ -699,6 +739,32 @@ mod tests {
         assert_eq!(on(2, 4096, 100), 256, "a small job stays one batch");
         assert_eq!(on(2, 512, 100_000), 512, "never above the planned size");
         assert_eq!(on(2, 1, 4096), 1);
+    }
+
+    #[test]
+    fn overlapping_batches_cut_the_last_in_two_when_each_half_holds_64_runs() {
+        assert_eq!(
+            cuts(1024, 256, true),
+            [0..256, 256..512, 512..768, 768..896, 896..1024]
+        );
+        assert_eq!(
+            cuts(1024, 256, false),
+            [0..256, 256..512, 512..768, 768..1024]
+        );
+        assert_eq!(
+            cuts(1000, 256, true),
+            [0..256, 256..512, 512..768, 768..884, 884..1000]
+        );
+        assert_eq!(
+            cuts(300, 256, true),
+            [0..256, 256..300],
+            "a last batch of 44 runs"
+        );
+        let one = cuts(1024, 4096, true);
+        assert_eq!(one.len(), 1, "one batch: nothing to overlap");
+        assert_eq!(one[0], 0..1024);
+        assert_eq!(cuts(0, 256, true), Vec::<Range<usize>>::new());
+        assert_eq!(cuts(5, 0, false), [0..1, 1..2, 2..3, 3..4, 4..5]);
     }
 
     #[test]
