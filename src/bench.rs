@@ -231,6 +231,26 @@ pub fn memory_per_instance(spec: &Arc<Spec>, runs: usize) -> Result<Memory, Benc
     })
 }
 
+/// Bytes of state per run ([`Batch::state_bytes`], 100 paper-default runs) of each rule of
+/// [`every_rule`] on `spec`, in that order.
+pub fn state_by_rule(spec: &Arc<Spec>) -> Result<Vec<(Controller, Combine, usize)>, BenchError> {
+    const RUNS: usize = 100;
+    every_rule()
+        .into_iter()
+        .map(|(controller, combine)| {
+            let params = Params {
+                controller,
+                combine,
+                steps: crate::env::registry::default_steps(&spec.name),
+                babbling: crate::env::registry::default_babbling(&spec.name),
+                ..Params::default()
+            };
+            let batch = Batch::new(Arc::clone(spec), configs(params, RUNS))?;
+            Ok((controller, combine, batch.state_bytes() / RUNS))
+        })
+        .collect()
+}
+
 /// The process's resident set size, from `/proc/self/status` (None elsewhere than Linux).
 pub fn resident_bytes() -> Option<u64> {
     let status = std::fs::read_to_string("/proc/self/status").ok()?;

@@ -10,7 +10,7 @@ use clap::Args;
 use super::{Failure, runtime, usage};
 use crate::bench::{
     GROWTH_CONTROLLERS, GROWTH_RUNS, GROWTH_STEPS, GrowthPoint, growth, growth_sizes,
-    memory_per_instance, steady_rate, whole_run, write_growth,
+    memory_per_instance, state_by_rule, steady_rate, whole_run, write_growth,
 };
 use crate::env;
 use crate::params::{Combine, Controller, Params};
@@ -70,6 +70,7 @@ pub fn command(args: &BenchArgs) -> Result<(), Failure> {
         text: !args.json,
         rates: Vec::new(),
         wholes: Vec::new(),
+        state: Vec::new(),
     };
     say!(
         report,
@@ -85,10 +86,7 @@ pub fn command(args: &BenchArgs) -> Result<(), Failure> {
                 serde_json::json!({
                     "task": r.task,
                     "controller": r.controller.name(),
-                    "combine": match r.combine {
-                        Combine::Select => "select",
-                        Combine::Mix => "mix",
-                    },
+                    "combine": combine_name(r.combine),
                     "runs": r.runs,
                     "threads": r.threads,
                     "steps_per_s": r.steps_per_s,
@@ -112,6 +110,11 @@ pub fn command(args: &BenchArgs) -> Result<(), Failure> {
                 "runs": 10_000,
                 "state_bytes_per_run": memory.layout_bytes,
                 "resident_bytes_per_run": memory.rss_bytes,
+                "state_bytes_per_run_by_rule": report.state.iter().map(|(c, combine, bytes)| serde_json::json!({
+                    "controller": c.name(),
+                    "combine": combine_name(*combine),
+                    "bytes": bytes,
+                })).collect::<Vec<_>>(),
             },
         });
         outln!("{json:#}");
@@ -176,6 +179,8 @@ struct Report {
     text: bool,
     rates: Vec<Rate>,
     wholes: Vec<Whole>,
+    /// Bytes of state per tidy1 run of each rule.
+    state: Vec<(Controller, Combine, usize)>,
 }
 
 /// `outln!` when the report prints its tables.
@@ -367,7 +372,27 @@ fn headline(
             None => String::new(),
         }
     );
+    report.state = state_by_rule(&spec)?;
+    if report.text {
+        let each: Vec<String> = report
+            .state
+            .iter()
+            .map(|(c, combine, bytes)| {
+                let mix = if *combine == Combine::Mix { "-mix" } else { "" };
+                format!("{}{mix} {:.1}", c.name(), *bytes as f64 / 1024.0)
+            })
+            .collect();
+        outln!("state per tidy1 run, KiB: {}", each.join(", "));
+    }
     Ok(memory)
+}
+
+/// A `combine` value as `mbmf run --combine` spells it.
+fn combine_name(combine: Combine) -> &'static str {
+    match combine {
+        Combine::Select => "select",
+        Combine::Mix => "mix",
+    }
 }
 
 fn growth_row(point: &GrowthPoint) {
