@@ -192,6 +192,11 @@ pub trait Arbiter {
     /// Whether the rule reads the per-state inference cost averages ([`Inputs::cost_mf`],
     /// [`Inputs::cost_mb`]): only then does the step keep them up to date.
     const WEIGHS_COST: bool = false;
+    /// Whether the experts' averaged distributions (SPEC 3.3) are kept: the rule reads their
+    /// entropies, or reports the acting expert's ([`Inputs::choice`]). A rule that draws from
+    /// values of its own and reports the drawn distribution's entropy (`vpi`) holds no such
+    /// tables, and its experts compute a softmax only to draw from it.
+    const AVERAGES: bool = Self::DRAW as u8 != Draw::PerAction as u8;
 
     /// Scalars the rule keeps per run (SPEC 12.3's P_MB), in [`Own::run`].
     fn run_scalars(_params: &Params) -> usize {
@@ -295,6 +300,11 @@ macro_rules! arbiters {
             /// Whether the MB expert runs.
             pub fn runs_mb(self) -> bool {
                 match self { $(Controller::$variant => <$module::$ty as Arbiter>::RUNS_MB),* }
+            }
+
+            /// Whether the experts' averaged distributions are kept ([`Arbiter::AVERAGES`]).
+            pub fn averages(self) -> bool {
+                match self { $(Controller::$variant => <$module::$ty as Arbiter>::AVERAGES),* }
             }
 
             /// Scalars the rule keeps per run with `params`.

@@ -432,7 +432,8 @@ impl Batch {
     }
 
     /// Averaged action probabilities of run `r`: (MF, MB), each `[state, action]`; uniform for
-    /// an expert the run's controller does not run.
+    /// an expert the run's controller does not run, and for a rule that keeps none (`vpi`,
+    /// [`crate::arbiter::Arbiter::AVERAGES`]).
     pub fn averaged_probabilities(
         &self,
         r: usize,

@@ -636,7 +636,11 @@ fn decide<A: Arbiter, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
     } else {
         None
     };
-    if A::RUNS_MF {
+    if A::RUNS_MF && !A::AVERAGES {
+        if whole == Some(Expert::Mf) {
+            softmax_graded_by(signed, &run.q_mf[row.clone()], g, bonus, tau, p_mf);
+        }
+    } else if A::RUNS_MF {
         let fold = Fold {
             expert: Expert::Mf,
             drawn: (A::DRAW == Draw::Expert && !choice.use_mb) || whole == Some(Expert::Mf),
@@ -655,7 +659,11 @@ fn decide<A: Arbiter, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
             &mut run.entropy_mf[s],
         );
     }
-    if A::RUNS_MB {
+    if A::RUNS_MB && !A::AVERAGES {
+        if whole == Some(Expert::Mb) {
+            softmax_graded_by(signed, &run.q_mb[row.clone()], g, bonus, tau, p_mb);
+        }
+    } else if A::RUNS_MB {
         let fold = Fold {
             expert: Expert::Mb,
             drawn: (A::DRAW == Draw::Expert && choice.use_mb) || whole == Some(Expert::Mb),

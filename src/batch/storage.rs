@@ -26,6 +26,11 @@ pub struct Sizes {
     pub mf_states: usize,
     /// States of the MB expert's tables: the task's, or 0 when no run runs MB.
     pub mb_states: usize,
+    /// States of the MF expert's averaged distribution and its entropy: the task's when a run
+    /// runs MF with a rule that keeps them ([`crate::arbiter::Arbiter::AVERAGES`]), else 0.
+    pub avg_mf_states: usize,
+    /// The same for the MB expert.
+    pub avg_mb_states: usize,
     /// States of the tables only runs of the MF expert alone keep (their softmax and row
     /// maxima between decisions; two-expert runs would outgrow 64 KiB of state per tidy run).
     pub kept_states: usize,
@@ -67,6 +72,8 @@ impl Sizes {
             actions: spec.n_actions,
             mf_states: states_if(any(Controller::runs_mf)),
             mb_states: states_if(mb),
+            avg_mf_states: states_if(any(|c| c.runs_mf() && c.averages())),
+            avg_mb_states: states_if(any(|c| c.runs_mb() && c.averages())),
             kept_states: states_if(any(|c| c.runs_mf() && !c.runs_mb())),
             outcomes: if mb { outcomes } else { 0 },
             window_cap: max(&|p| p.window_n as usize).max(1),
@@ -251,14 +258,14 @@ tables! {
         /// MB action values, `[state, action]`.
         q_mb: f64 [z.mb_states * z.actions] = p.q_init;
         /// MF averaged action probabilities, `[state, action]` (SPEC 3.3: uniform at first).
-        pavg_mf: f64 [z.mf_states * z.actions] = 1.0 / n_actions as f64;
+        pavg_mf: f64 [z.avg_mf_states * z.actions] = 1.0 / n_actions as f64;
         /// MB averaged action probabilities, `[state, action]`.
-        pavg_mb: f64 [z.mb_states * z.actions] = 1.0 / n_actions as f64;
+        pavg_mb: f64 [z.avg_mb_states * z.actions] = 1.0 / n_actions as f64;
         /// Entropy in bits of each state's MF averaged distribution, NaN when not known since
         /// the row last changed.
-        entropy_mf: f64 [z.mf_states] = f64::NAN;
+        entropy_mf: f64 [z.avg_mf_states] = f64::NAN;
         /// The same for the MB averaged distribution.
-        entropy_mb: f64 [z.mb_states] = f64::NAN;
+        entropy_mb: f64 [z.avg_mb_states] = f64::NAN;
         /// For an `mf` run without a human: the MF softmax last computed in each state,
         /// `[state, action]` (empty for other runs).
         p_mf: f64 [z.kept_states * z.actions] = 0.0;

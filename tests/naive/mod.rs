@@ -637,19 +637,25 @@ impl NaiveRun {
             self.avg_cost_mb[s] = ema(self.avg_cost_mb[s], cost_mb, alpha);
         }
 
-        // 5. Each running expert computes its (biased) softmax and folds it into its average.
+        // 5. Each running expert computes its (biased) softmax and folds it into its average
+        // (SPEC 3.3's, which the MC reads; `vpi` neither reads nor reports them: its averages
+        // stay as they started).
         let mut p_mf = Vec::new();
         let mut p_mb_dist = Vec::new();
         if self.runs_mf() {
             p_mf = self.policy(&self.q_mf[s], s);
-            for (avg, &p) in self.avg_p_mf[s].iter_mut().zip(&p_mf) {
-                *avg = ema(*avg, p, alpha);
+            if !vpi {
+                for (avg, &p) in self.avg_p_mf[s].iter_mut().zip(&p_mf) {
+                    *avg = ema(*avg, p, alpha);
+                }
             }
         }
         if self.runs_mb() {
             p_mb_dist = self.policy(&self.q_mb[s], s);
-            for (avg, &p) in self.avg_p_mb[s].iter_mut().zip(&p_mb_dist) {
-                *avg = ema(*avg, p, alpha);
+            if !vpi {
+                for (avg, &p) in self.avg_p_mb[s].iter_mut().zip(&p_mb_dist) {
+                    *avg = ema(*avg, p, alpha);
+                }
             }
         }
         let u = uniform(&mut self.rng);
