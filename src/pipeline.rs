@@ -497,14 +497,14 @@ impl Writer for Tables {
             tables_and_trace(batch, self.seeds, &self.names, profiles, traced)?;
         // Side by side: each file's columns are encoded in parallel already, but a table of
         // few columns leaves a thread idle.
-        let (traced, (runs, series)) = rayon::join(
+        let (trace_written, (runs_written, series_written)) = rayon::join(
             || match (&mut self.trace, trace) {
                 (Some(sink), Some(trace)) => sink.write(&trace),
                 _ => Ok(()),
             },
             || rayon::join(|| self.runs.write(&runs), || self.series.write(&series)),
         );
-        traced.and(runs).and(series)
+        trace_written.and(runs_written).and(series_written)
     }
 
     fn traces(&self) -> bool {

@@ -196,7 +196,7 @@ pub trait Arbiter {
     /// entropies, or reports the acting expert's ([`Inputs::choice`]). A rule that draws from
     /// values of its own and reports the drawn distribution's entropy (`vpi`) holds no such
     /// tables, and its experts compute a softmax only to draw from it.
-    const AVERAGES: bool = Self::DRAW as u8 != Draw::PerAction as u8;
+    const AVERAGES: bool = !matches!(Self::DRAW, Draw::PerAction);
 
     /// Scalars the rule keeps per run (SPEC 12.3's P_MB), in [`Own::run`].
     fn run_scalars(_params: &Params) -> usize {
