@@ -5,6 +5,8 @@
 //! Reference p-values come from scipy 1.17 (`scipy.stats.mannwhitneyu`, method 'auto') and
 //! statsmodels (`multipletests(..., method='holm')`); the script is quoted beside each value.
 
+mod common;
+
 use std::path::Path;
 use std::process::Output;
 
@@ -1122,7 +1124,7 @@ fn an_incomplete_or_locked_sweep_is_refused_unless_allowed_saying_how_many_runs(
             "{e}"
         );
     }
-    drop(lock);
+    common::release_lock(lock, &lock_path);
     // A stale lock (its holder is gone) is no writer.
     assert!(lock_path.exists());
     assert_eq!(verb_outputs(d)[0].0, complete[0].0);

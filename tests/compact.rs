@@ -125,7 +125,7 @@ fn compact_refuses_an_incomplete_a_locked_and_a_foreign_folder() {
     assert_ne!(e.status.code(), Some(0));
     let err = String::from_utf8_lossy(&e.stderr);
     assert!(err.contains("being written by"), "{err}");
-    drop(lock);
+    common::release_lock(lock, &out.join(".lock-1-of-2"));
     run_ok(&["compact", out.to_str().unwrap()]);
 
     let e = run(&["compact", dir.path().to_str().unwrap()]);

@@ -529,7 +529,7 @@ fn a_folder_being_written_is_refused_and_a_stale_lock_is_taken_over() {
     let err = String::from_utf8_lossy(&other.stderr);
     assert!(err.contains("different split"), "{err}");
     // The holder dies: its lock file stays, but the kernel released the lock.
-    drop(holder);
+    common::release_lock(holder, &lock_path);
     let ok = run_ok(&["sweep", &file, "--out", out.to_str().unwrap(), "--quiet"]);
     let err = String::from_utf8_lossy(&ok.stderr);
     assert!(

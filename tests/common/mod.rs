@@ -45,6 +45,30 @@ pub fn run_ok(args: &[&str]) -> Output {
     out
 }
 
+/// Drops `lock`, a lock this test holds on the file at `path`, and waits until no process holds
+/// it. Another test's child holds a copy of every descriptor from its fork to its exec (close
+/// on exec closes them only then), and with it the lock: a moment that a loaded machine can
+/// stretch enough for the next command to find the folder still being written.
+pub fn release_lock<L>(lock: L, path: &Path) {
+    drop(lock);
+    let deadline = Instant::now() + Duration::from_secs(30);
+    loop {
+        let probe = match File::open(path) {
+            Ok(file) => file,
+            // Its holder removed it: nobody holds it.
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => return,
+            Err(e) => panic!("{}: {e}", path.display()),
+        };
+        match probe.try_lock() {
+            Ok(()) => return,
+            Err(std::fs::TryLockError::WouldBlock) if Instant::now() < deadline => {
+                std::thread::sleep(Duration::from_millis(10));
+            }
+            Err(e) => panic!("{} is still locked after 30 s: {e}", path.display()),
+        }
+    }
+}
+
 /// `mbmf run` of MF and EC, two runs of 300 steps: the small run several tests start from.
 pub const SMALL_RUN: [&str; 7] = [
     "run",
