@@ -84,11 +84,7 @@ pub fn steady_rate(
     window: u64,
     repeats: usize,
 ) -> Result<Vec<f64>, BenchError> {
-    let total = u64::from(params.babbling) + u64::from(params.steps);
-    let mut batch = Batch::new(Arc::clone(spec), configs(params, runs))?;
-    let all = pool(std::thread::available_parallelism().map_or(1, |n| n.get()))?;
-    all.install(|| batch.advance(total.saturating_sub(window)));
-    let window = window.min(total);
+    let steady = Steady::new(spec, params, runs, window)?;
     let pools = threads
         .iter()
         .map(|&t| pool(t))
@@ -96,16 +92,73 @@ pub fn steady_rate(
     let mut rates = vec![Vec::new(); threads.len()];
     for _ in 0..repeats.max(1) {
         for (pool, rates) in pools.iter().zip(&mut rates) {
-            rates.push(window_rate(&batch, pool, window));
+            rates.push(steady.rate(pool));
         }
     }
-    Ok(rates
-        .into_iter()
-        .map(|mut r| {
-            r.sort_by(f64::total_cmp);
-            r[r.len() / 2]
+    Ok(rates.into_iter().map(median).collect())
+}
+
+/// The median of `values` (the upper one of an even count).
+fn median(mut values: Vec<f64>) -> f64 {
+    values.sort_by(f64::total_cmp);
+    values[values.len() / 2]
+}
+
+/// A batch advanced to the start of the `window` steps that end its runs: every timed window
+/// runs a clone of it, so windows are alike and the warm-up is paid once.
+pub struct Steady {
+    batch: Batch,
+    window: u64,
+}
+
+impl Steady {
+    /// `runs` runs of `params` on `spec`, advanced (on every core) to their last `window` steps.
+    pub fn new(
+        spec: &Arc<Spec>,
+        params: Params,
+        runs: usize,
+        window: u64,
+    ) -> Result<Steady, BenchError> {
+        let total = u64::from(params.babbling) + u64::from(params.steps);
+        let mut batch = Batch::new(Arc::clone(spec), configs(params, runs))?;
+        let all = pool(std::thread::available_parallelism().map_or(1, |n| n.get()))?;
+        all.install(|| batch.advance(total.saturating_sub(window)));
+        Ok(Steady {
+            batch,
+            window: window.min(total),
         })
-        .collect())
+    }
+
+    /// Agent-steps per second of one window on `pool`.
+    pub fn rate(&self, pool: &rayon::ThreadPool) -> f64 {
+        window_rate(&self.batch, pool, self.window)
+    }
+}
+
+/// A rule's steady rate against a base rule's, from windows of the two timed in turn.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Paired {
+    /// Median agent-steps per second of the rule.
+    pub rate: f64,
+    /// Median over the pairs of the rule's time per agent-step over the base's: a slow spell of
+    /// the machine weighs on both windows of a pair alike, so this moves far less than the
+    /// ratio of two medians timed apart.
+    pub time_over_base: f64,
+}
+
+/// Times `repeats` pairs of windows (the base's, then the rule's) on `pool`.
+pub fn paired(base: &Steady, rule: &Steady, pool: &rayon::ThreadPool, repeats: usize) -> Paired {
+    let (mut rates, mut ratios) = (Vec::new(), Vec::new());
+    for _ in 0..repeats.max(1) {
+        let base_rate = base.rate(pool);
+        let rate = rule.rate(pool);
+        rates.push(rate);
+        ratios.push(base_rate / rate);
+    }
+    Paired {
+        rate: median(rates),
+        time_over_base: median(ratios),
+    }
 }
 
 /// `runs` runs of `params` with run indices 0.. under [`SEED`].
@@ -169,10 +222,7 @@ pub fn whole_run(
     let seconds = threads
         .iter()
         .zip(times)
-        .map(|(&t, mut v)| {
-            v.sort_by(f64::total_cmp);
-            (t, v[v.len() / 2])
-        })
+        .map(|(&t, v)| (t, median(v)))
         .collect();
     Ok(WholeRun {
         params,

@@ -9,8 +9,8 @@ use clap::Args;
 
 use super::{Failure, runtime, usage};
 use crate::bench::{
-    GROWTH_CONTROLLERS, GROWTH_RUNS, GROWTH_STEPS, GrowthPoint, growth, growth_sizes,
-    memory_per_instance, state_by_rule, steady_rate, whole_run, write_growth,
+    GROWTH_CONTROLLERS, GROWTH_RUNS, GROWTH_STEPS, GrowthPoint, Steady, growth, growth_sizes,
+    memory_per_instance, paired, pool, state_by_rule, steady_rate, whole_run, write_growth,
 };
 use crate::env;
 use crate::params::{Combine, Controller, Params};
@@ -90,6 +90,7 @@ pub fn command(args: &BenchArgs) -> Result<(), Failure> {
                     "runs": r.runs,
                     "threads": r.threads,
                     "steps_per_s": r.steps_per_s,
+                    "time_over_ec": r.time_over_ec,
                 })
             })
             .collect();
@@ -163,6 +164,8 @@ struct Rate {
     runs: usize,
     threads: usize,
     steps_per_s: f64,
+    /// Time per agent-step over EC's on the same task, from paired windows (the rules' table).
+    time_over_ec: Option<f64>,
 }
 
 /// One whole command timed.
@@ -237,6 +240,7 @@ fn headline(
             runs,
             threads: 1,
             steps_per_s: rate,
+            time_over_ec: None,
         });
     }
 
@@ -259,8 +263,10 @@ fn headline(
             "steps/s",
             "time / ec's"
         );
-        let mut ec_rate = f64::NAN;
-        for &(controller, combine) in &rules {
+        // Each rule's windows alternate with EC's, and its time against EC's is the median of
+        // the pairs' ratios: a slow spell of a shared machine weighs on both alike.
+        let one = pool(1)?;
+        let steady = |(controller, combine): (Controller, Combine)| {
             let params = Params {
                 controller,
                 combine,
@@ -268,10 +274,15 @@ fn headline(
                 babbling: env::registry::default_babbling(task),
                 ..Params::default()
             };
-            let rate = steady_rate(spec, params, runs, &[1], 1000, 5)?[0];
-            if (controller, combine) == (Controller::Ec, Combine::Select) {
-                ec_rate = rate;
-            }
+            Steady::new(spec, params, runs, 1000)
+        };
+        let ec = steady((Controller::Ec, Combine::Select))?;
+        for &(controller, combine) in &rules {
+            let timed = if (controller, combine) == (Controller::Ec, Combine::Select) {
+                paired(&ec, &ec, &one, 5)
+            } else {
+                paired(&ec, &steady((controller, combine))?, &one, 5)
+            };
             let name = match combine {
                 Combine::Select => controller.name().to_string(),
                 Combine::Mix => format!("{} (mix)", controller.name()),
@@ -279,8 +290,8 @@ fn headline(
             say!(
                 report,
                 "  {name:<20} {:>16} {:>13.2}x",
-                thousands(rate),
-                ec_rate / rate
+                thousands(timed.rate),
+                timed.time_over_base
             );
             report.rates.push(Rate {
                 task: task.clone(),
@@ -288,7 +299,8 @@ fn headline(
                 combine,
                 runs,
                 threads: 1,
-                steps_per_s: rate,
+                steps_per_s: timed.rate,
+                time_over_ec: Some(timed.time_over_base),
             });
         }
     }
@@ -318,6 +330,7 @@ fn headline(
             runs,
             threads: *t,
             steps_per_s: *rate,
+            time_over_ec: None,
         });
     }
 
