@@ -18,7 +18,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use arrow::array::{Array, AsArray};
-use arrow::compute::cast;
+use arrow::compute::{CastOptions, cast_with_options};
 use arrow::datatypes::{DataType, Int64Type};
 
 use super::AnalysisError;
@@ -371,15 +371,7 @@ pub fn read_trace_at(path: &Path) -> Result<Table, DatasetError> {
 
 /// One column of the trace as integers (`None` for null).
 fn ints(trace: &Table, name: &str) -> Result<Vec<Option<i64>>, AnalysisError> {
-    let column = trace.column(name)?;
-    let array =
-        cast(column.array(), &DataType::Int64).map_err(|_| AnalysisError::NothingToAnalyse {
-            dataset: trace.source().to_owned(),
-            reason: format!(
-                "trace column '{name}' holds {}, not whole numbers",
-                column.type_name()
-            ),
-        })?;
+    let array = cast_column(trace, name, DataType::Int64, "whole numbers")?;
     let array = array.as_primitive::<Int64Type>();
     Ok((0..array.len())
         .map(|i| (!array.is_null(i)).then(|| array.value(i)))
@@ -388,19 +380,34 @@ fn ints(trace: &Table, name: &str) -> Result<Vec<Option<i64>>, AnalysisError> {
 
 /// One column of the trace as text.
 fn texts(trace: &Table, name: &str) -> Result<Vec<Option<String>>, AnalysisError> {
-    let column = trace.column(name)?;
-    let array =
-        cast(column.array(), &DataType::Utf8).map_err(|_| AnalysisError::NothingToAnalyse {
-            dataset: trace.source().to_owned(),
-            reason: format!(
-                "trace column '{name}' holds {}, not text",
-                column.type_name()
-            ),
-        })?;
+    let array = cast_column(trace, name, DataType::Utf8, "text")?;
     let array = array.as_string::<i32>();
     Ok((0..array.len())
         .map(|i| (!array.is_null(i)).then(|| array.value(i).to_owned()))
         .collect())
+}
+
+/// Column `name` of the trace cast to `to`, or an error saying it holds something else than
+/// `expected`: a value that does not convert (text in a column of numbers) is refused, not
+/// read as null as arrow's default cast would.
+fn cast_column(
+    trace: &Table,
+    name: &str,
+    to: DataType,
+    expected: &str,
+) -> Result<arrow::array::ArrayRef, AnalysisError> {
+    let column = trace.column(name)?;
+    let strict = CastOptions {
+        safe: false,
+        ..CastOptions::default()
+    };
+    cast_with_options(column.array(), &to, &strict).map_err(|_| AnalysisError::NothingToAnalyse {
+        dataset: trace.source().to_owned(),
+        reason: format!(
+            "trace column '{name}' holds {}, not {expected}",
+            column.type_name()
+        ),
+    })
 }
 
 /// The task's world a run starts in, from its `task` and task-parameter columns.
@@ -792,6 +799,31 @@ mod tests {
 
     fn close(a: f64, b: f64, tol: f64) -> bool {
         (a - b).abs() <= tol
+    }
+
+    #[test]
+    fn trace_columns_are_read_as_numbers_or_text_and_refused_naming_what_they_hold() {
+        use dataset::Column;
+        let mut t = Table::new("session.parquet");
+        t.push("step", Column::floats([Some(1.0), None, Some(3.0)]));
+        t.push("actor", Column::texts([Some("human"), None, Some("mf")]));
+        assert_eq!(ints(&t, "step").unwrap(), [Some(1), None, Some(3)]);
+        let actors = texts(&t, "actor").unwrap();
+        assert_eq!(
+            actors,
+            [Some("human".to_owned()), None, Some("mf".to_owned())]
+        );
+        // Text that is no number: refused, naming the file, the column and what it holds.
+        let AnalysisError::NothingToAnalyse { dataset, reason } = ints(&t, "actor").unwrap_err()
+        else {
+            panic!("not a refusal of the dataset");
+        };
+        assert_eq!(dataset, "session.parquet");
+        assert!(
+            reason.starts_with("trace column 'actor' holds "),
+            "{reason}"
+        );
+        assert!(reason.ends_with(", not whole numbers"), "{reason}");
     }
 
     #[test]

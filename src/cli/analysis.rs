@@ -680,11 +680,16 @@ fn print_comparison(c: &Comparison) {
             values.join(", ")
         );
     }
-    if !c.mixed.is_empty() {
+    print_mixed(&c.mixed);
+}
+
+/// The parameters that vary within the compared groups, if any, and how to hold them fixed.
+fn print_mixed(mixed: &[String]) {
+    if !mixed.is_empty() {
         outln!(
             "within groups these parameters also vary: {}; add --where COLUMN=VALUE to compare \
              like with like",
-            c.mixed.join(", ")
+            mixed.join(", ")
         );
     }
 }
@@ -842,13 +847,7 @@ fn print_stay(s: &stay::Stay) {
              that column; effect = P(a > b) - P(a < b)"
         );
     }
-    if !s.mixed.is_empty() {
-        outln!(
-            "within groups these parameters also vary: {}; add --where COLUMN=VALUE to compare \
-             like with like",
-            s.mixed.join(", ")
-        );
-    }
+    print_mixed(&s.mixed);
 }
 
 /// Runs `mbmf min-budget`.
