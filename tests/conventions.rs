@@ -418,8 +418,8 @@ fn the_readme_shows_what_the_default_run_prints() {
 }
 
 /// `mbmf bench --json` is one object: a positive rate, and its time per step against EC's, for
-/// every rule of SPEC 4 and 12 (and `combine = mix` where it applies) on tidy1, tidy2 and twostep, the thread scaling, the whole commands, and the memory
-/// per instance.
+/// every rule of SPEC 4 and 12 (and `combine = mix` where it applies) on tidy1, tidy2 and
+/// twostep, the thread scaling, the whole commands, and the memory per instance.
 #[test]
 fn bench_json_is_one_object_with_every_rule_and_the_memory() {
     let output = mbmf()

@@ -17,7 +17,7 @@ use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use arrow::array::{Array, AsArray};
+use arrow::array::{Array, ArrayRef, AsArray};
 use arrow::compute::{CastOptions, cast_with_options};
 use arrow::datatypes::{DataType, Int64Type};
 
@@ -395,7 +395,7 @@ fn cast_column(
     name: &str,
     to: DataType,
     expected: &str,
-) -> Result<arrow::array::ArrayRef, AnalysisError> {
+) -> Result<ArrayRef, AnalysisError> {
     let column = trace.column(name)?;
     let strict = CastOptions {
         safe: false,
