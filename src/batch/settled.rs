@@ -23,12 +23,24 @@ impl Expert {
             Expert::Mb => (4, 8),
         }
     }
+
+    /// The expert's third flag: its settled average equals its softmax, bit for bit.
+    #[inline(always)]
+    const fn equal_bit(self) -> u8 {
+        match self {
+            Expert::Mf => 16,
+            Expert::Mb => 32,
+        }
+    }
 }
 
 /// Per state, for each expert: whether its Q row has not changed since its softmax was last
 /// folded into its averaged distribution (for an `mf` run, which keeps that softmax, it is in
-/// `p_mf`), and whether that fold left the averaged distribution as it was, so that folding
-/// again would too. A new state knows nothing ([`Default`]).
+/// `p_mf`), whether that fold left the averaged distribution as it was, so that folding
+/// again would too, and whether that settled average is the softmax itself, bit for bit, so
+/// that a decision drawing from the softmax may copy the average instead of computing it (most
+/// settled averages are: a near-deterministic softmax is its own moving average's fixed point).
+/// A new state knows nothing ([`Default`]).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 #[repr(transparent)]
 pub struct Settled(u8);
@@ -61,7 +73,7 @@ impl Settled {
     #[inline(always)]
     pub fn q_changed(&mut self, expert: Expert) {
         let (softmax, average) = expert.bits();
-        self.0 &= !(softmax | average);
+        self.0 &= !(softmax | average | expert.equal_bit());
     }
 
     /// Whether the expert's Q row is unchanged since its softmax was last folded.
@@ -83,17 +95,31 @@ impl Settled {
         entropy: &mut f64,
     ) -> bool {
         let (softmax, average) = fold.expert.bits();
+        let equal = fold.expert.equal_bit();
         let both = softmax | average;
         let unchanged = self.0 & both == both;
         let fresh = fold.kept && self.0 & softmax != 0;
         if !fresh && (fold.drawn || !unchanged) {
-            softmax_graded_by(fold.signed, fold.q, fold.g, fold.bonus, fold.tau, p);
+            if unchanged && self.0 & equal != 0 {
+                p.copy_from_slice(avg);
+            } else {
+                softmax_graded_by(fold.signed, fold.q, fold.g, fold.bonus, fold.tau, p);
+            }
         }
         if unchanged {
             return false;
         }
         let changed = ema_into(avg, p, fold.alpha);
-        self.0 = (self.0 & !both) | if changed { softmax } else { both };
+        // Once settled, whether the average is the softmax is checked once, not per decision.
+        let same = !changed && avg.iter().zip(&*p).all(|(a, b)| a.to_bits() == b.to_bits());
+        self.0 = (self.0 & !(both | equal))
+            | if changed {
+                softmax
+            } else if same {
+                both | equal
+            } else {
+                both
+            };
         if changed {
             *entropy = f64::NAN;
         }
@@ -142,6 +168,34 @@ mod tests {
 
     /// Both of the MF expert's flags.
     const MF_BOTH: Settled = Settled(1 | 2);
+    /// Both, and the average is the softmax.
+    const MF_EQUAL: Settled = Settled(1 | 2 | 16);
+
+    #[test]
+    fn a_drawn_softmax_is_copied_from_the_average_only_when_they_are_equal() {
+        // A certain choice: p = (1, 0, 0), and 0.4 * 1 + 0.6 * 1 is 1 exactly, so the average
+        // settles on the softmax itself.
+        let q = [0.0, -1000.0, -1000.0];
+        let p = softmax(&q);
+        assert_eq!(p, [1.0, 0.0, 0.0]);
+        let mut st = State {
+            p: [f64::NAN; 3],
+            avg: [1.0 / 3.0; 3],
+            settled: Settled::default(),
+            entropy: 0.0,
+        };
+        // The zeros shrink by 0.4 a fold, through the subnormals: about 800 folds.
+        let folds = (1..2000).find(|_| !st.fold(&q, false, false));
+        assert!(folds.expect("the average settles") > 1);
+        assert_eq!((st.avg, st.settled), (p, MF_EQUAL));
+        // Drawn: the average is copied; the row is not even read.
+        st.p = [f64::NAN; 3];
+        assert!(!st.fold(&[f64::NAN; 3], true, false));
+        assert_eq!(st.p, p);
+        // A changed row forgets all three flags.
+        st.settled.q_changed(Expert::Mf);
+        assert_eq!(st.settled, Settled::default());
+    }
 
     #[test]
     fn a_settled_fold_is_skipped_and_its_softmax_only_computed_when_drawn() {
@@ -162,7 +216,7 @@ mod tests {
         // Folding the same softmax converges (the moving average reaches a fixed point).
         let folds = (1..200).find(|_| {
             st.fold(&q, false, false);
-            st.settled == MF_BOTH
+            st.settled.0 & MF_BOTH.0 == MF_BOTH.0
         });
         assert!(folds.expect("the average settles") > 1);
         let settled_avg = st.avg;
@@ -172,10 +226,14 @@ mod tests {
         assert!(!st.fold(&q, false, false));
         assert!(st.p.iter().all(|x| x.is_nan()));
         assert_eq!((st.avg, st.entropy), (settled_avg, 2.0));
-        // Drawn from: the softmax is computed again (bit for bit the same), the fold still not.
+        // Drawn from: the softmax is there again (bit for bit the same), the fold still not.
         assert!(!st.fold(&q, true, false));
         assert_eq!(st.p, softmax(&q));
         assert_eq!(st.avg, settled_avg);
+        // This average settled a rounding away from the softmax (0.4 a + 0.6 p rounds back to
+        // a), so the flag says they differ and the drawn softmax above was computed.
+        assert_ne!(settled_avg, softmax(&q));
+        assert_eq!(st.settled, MF_BOTH);
         // Kept where it stays (an mf run's p_mf): not even the drawn softmax is recomputed.
         st.p = [f64::NAN; 3];
         assert!(!st.fold(&q, true, true));
