@@ -12,14 +12,15 @@ const K: usize = 3;
 /// The time step of the transition-rate dynamics (SPEC 12.3).
 const DT: f64 = 0.1;
 
-// The run's scalars: P_MB, Omega, the class counts, the ring's length and next slot, then the
-// ring of the last `rel_memory` classes.
+// The run's scalars: P_MB, Omega, the class counts, the ring's length and next slot, the
+// memory of the last rates ([`Rates`]), then the ring of the last `rel_memory` classes.
 const P_MB: usize = 0;
 const OMEGA: usize = 1;
 const COUNTS: usize = 2;
 const LEN: usize = COUNTS + K;
 const POS: usize = LEN + 1;
-const RING: usize = POS + 1;
+const RATES: usize = POS + 1;
+const RING: usize = RATES + Rates::LEN;
 
 /// Reliability-based arbitration.
 pub struct Reliability;
@@ -47,18 +48,56 @@ pub fn chi_mf(omega: f64, r_max: f64) -> f64 {
     }
 }
 
-/// P_MB after one transition with reliabilities `chi_mf` and `chi_mb`: the transition rates
-/// alpha (MF to MB) and beta (MB to MF), and P_MB relaxing towards alpha / (alpha + beta) over
-/// dt. With both rates 0 (zero amplitudes) it stays.
+/// [`Rates::next_p_mb`] computed afresh: the reference a run's remembered rates are checked
+/// against.
+#[cfg(test)]
 pub fn next_p_mb(params: &Params, p_mb: f64, chi_mf: f64, chi_mb: f64) -> f64 {
-    let alpha = params.rel_a_mf_mb / (1.0 + (params.rel_b_mf_mb * chi_mf).exp());
-    let beta = params.rel_a_mb_mf / (1.0 + (params.rel_b_mb_mf * chi_mb).exp());
-    let rate = alpha + beta;
-    if rate > 0.0 {
-        let p_inf = alpha / rate;
-        p_inf + (p_mb - p_inf) * (-DT * rate).exp()
-    } else {
-        p_mb
+    let mut rates = Rates::FORGOTTEN;
+    Rates(&mut rates).next_p_mb(params, p_mb, chi_mf, chi_mb)
+}
+
+/// The three exponentials of SPEC 12.3's P_MB update for the last arguments they were computed for, as
+/// (argument, value) pairs in a run's scalars: once learning has settled, the reliabilities
+/// stop moving (every SPE zero, Omega shrunk past R_max's rounding) and the rates are the same
+/// at every transition, bit for bit, so a transition costs no `exp`.
+struct Rates<'a>(&'a mut [f64]);
+
+impl Rates<'_> {
+    /// Scalars: chi_MF, alpha, chi_MB, beta, alpha + beta, exp(-dt (alpha + beta)).
+    const LEN: usize = 6;
+    /// No argument seen: -1 is no reliability (both lie in [0, 1] or are NaN) and no rate sum
+    /// (rates are positive or NaN).
+    const FORGOTTEN: [f64; Rates::LEN] = [-1.0, 0.0, -1.0, 0.0, -1.0, 0.0];
+
+    /// `f(x)`, from the pair at `at` when `x` is its argument (compared bit for bit).
+    #[inline(always)]
+    fn recall(&mut self, at: usize, x: f64, f: impl FnOnce(f64) -> f64) -> f64 {
+        if self.0[at].to_bits() != x.to_bits() {
+            self.0[at] = x;
+            self.0[at + 1] = f(x);
+        }
+        self.0[at + 1]
+    }
+
+    /// P_MB after one transition with reliabilities `chi_mf` and `chi_mb`: the transition rates
+    /// alpha (MF to MB) and beta (MB to MF), and P_MB relaxing towards alpha / (alpha + beta)
+    /// over dt; with both rates 0 (zero amplitudes) it stays. Only the exponentials whose
+    /// arguments changed are computed.
+    #[inline(always)]
+    fn next_p_mb(&mut self, params: &Params, p_mb: f64, chi_mf: f64, chi_mb: f64) -> f64 {
+        let alpha = self.recall(0, chi_mf, |chi| {
+            params.rel_a_mf_mb / (1.0 + (params.rel_b_mf_mb * chi).exp())
+        });
+        let beta = self.recall(2, chi_mb, |chi| {
+            params.rel_a_mb_mf / (1.0 + (params.rel_b_mb_mf * chi).exp())
+        });
+        let rate = alpha + beta;
+        if rate > 0.0 {
+            let p_inf = alpha / rate;
+            p_inf + (p_mb - p_inf) * self.recall(4, rate, |rate| (-DT * rate).exp())
+        } else {
+            p_mb
+        }
     }
 }
 
@@ -83,6 +122,7 @@ impl Arbiter for Reliability {
 
     fn start(params: &Params, own: &mut Own<'_>) {
         own.run[P_MB] = params.rel_p0;
+        own.run[RATES..RING].copy_from_slice(&Rates::FORGOTTEN);
     }
 
     #[inline(always)]
@@ -125,7 +165,8 @@ impl Arbiter for Reliability {
 
         run[OMEGA] += params.rel_eta * (rpe.abs() - run[OMEGA]);
         let chi_f = chi_mf(run[OMEGA], t.r_max);
-        run[P_MB] = next_p_mb(params, run[P_MB], chi_f, chi_b);
+        let p_mb = run[P_MB];
+        run[P_MB] = Rates(&mut run[RATES..RING]).next_p_mb(params, p_mb, chi_f, chi_b);
     }
 }
 
@@ -178,6 +219,26 @@ mod tests {
             ..Params::default()
         };
         assert_eq!(next_p_mb(&frozen, 0.7, 0.2, 0.3), 0.7);
+    }
+
+    #[test]
+    fn remembered_rates_are_the_computed_ones_bit_for_bit() {
+        let params = Params::default();
+        let mut memory = Rates::FORGOTTEN;
+        let (mut kept, mut fresh) = (0.7, 0.7);
+        // Arguments that repeat, change and come back, as a run's reliabilities do.
+        let chis = [(1.0, 0.75), (1.0, 0.75), (0.9, 0.75), (0.9, 0.5), (1.0, 0.75), (1.0, 0.75)];
+        for (chi_f, chi_b) in chis {
+            kept = Rates(&mut memory).next_p_mb(&params, kept, chi_f, chi_b);
+            fresh = next_p_mb(&params, fresh, chi_f, chi_b);
+            assert_eq!(kept.to_bits(), fresh.to_bits(), "at chi ({chi_f}, {chi_b})");
+            assert_eq!(memory[0].to_bits(), chi_f.to_bits());
+            assert_eq!(memory[2].to_bits(), chi_b.to_bits());
+        }
+        // What is remembered is what is used: a wrong value under a matching argument shows.
+        memory[1] = 0.0;
+        let p = Rates(&mut memory).next_p_mb(&params, 0.7, 1.0, 0.75);
+        assert_ne!(p.to_bits(), next_p_mb(&params, 0.7, 1.0, 0.75).to_bits());
     }
 
     #[test]
