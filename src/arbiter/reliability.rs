@@ -56,10 +56,10 @@ pub fn next_p_mb(params: &Params, p_mb: f64, chi_mf: f64, chi_mb: f64) -> f64 {
     Rates(&mut rates).next_p_mb(params, p_mb, chi_mf, chi_mb)
 }
 
-/// The three exponentials of SPEC 12.3's P_MB update for the last arguments they were computed for, as
-/// (argument, value) pairs in a run's scalars: once learning has settled, the reliabilities
-/// stop moving (every SPE zero, Omega shrunk past R_max's rounding) and the rates are the same
-/// at every transition, bit for bit, so a transition costs no `exp`.
+/// The three exponentials of SPEC 12.3's P_MB update for the last arguments they were
+/// computed for, as (argument, value) pairs in a run's scalars: once learning has settled, the
+/// reliabilities stop moving (every SPE zero, Omega shrunk past R_max's rounding) and the rates
+/// are the same at every transition, bit for bit, so a transition costs no `exp`.
 struct Rates<'a>(&'a mut [f64]);
 
 impl Rates<'_> {
