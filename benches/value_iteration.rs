@@ -39,7 +39,9 @@ fn learn(spec: &Spec) -> Learned {
     let mut pavg_mb = vec![1.0 / n_a as f64; sa];
     let mut entropy_mf = vec![f64::NAN; n_s];
     let mut entropy_mb = vec![f64::NAN; n_s];
-    let mut p_mf = vec![0.0; sa];
+    // An MB run alone keeps one softmax per state.
+    let mut kept_p_mb = vec![0.0; sa];
+    let mut kept_owner_mb = vec![u32::MAX; n_s];
     let mut max_mf = vec![params.q_init; n_s];
     let mut settled = vec![Settled::default(); n_s];
     let mut cost_mf = vec![0.0; n_s];
@@ -62,7 +64,10 @@ fn learn(spec: &Spec) -> Learned {
             pavg_mb: &mut pavg_mb,
             entropy_mf: &mut entropy_mf,
             entropy_mb: &mut entropy_mb,
-            p_mf: &mut p_mf,
+            kept_p_mf: &mut [],
+            kept_owner_mf: &mut [],
+            kept_p_mb: &mut kept_p_mb,
+            kept_owner_mb: &mut kept_owner_mb,
             max_mf: &mut max_mf,
             settled: &mut settled,
             cost_mf: &mut cost_mf,

@@ -469,6 +469,13 @@ impl Params {
         self.lambda_mf > 0.0 && self.controller.runs_mf() && self.controller != Controller::Vpi
     }
 
+    /// Whether a human (simulated or a person) or a reward of theirs can act on the run: else,
+    /// with no schedule either, the run's steps are compiled without any human function.
+    pub fn human_may_act(&self) -> bool {
+        self.human.interaction != Interaction::None
+            || self.reward_source != RewardSource::Environment
+    }
+
     /// Checks that, with an environment whose goal gives `goal_reward`, no value the run computes
     /// can exceed [`VALUE_LIMIT`]: action values stay within max(|q_init|, |r| / (1 - gamma)) for
     /// each discount in use, and the total reward within |r| x steps. Call after [`validate`].

@@ -35,8 +35,8 @@ impl Expert {
 }
 
 /// Per state, for each expert: whether its Q row has not changed since its softmax was last
-/// folded into its averaged distribution (for an `mf` run, which keeps that softmax, it is in
-/// `p_mf`), whether that fold left the averaged distribution as it was, so that folding
+/// folded into its averaged distribution (a run that keeps softmaxes may still hold it:
+/// [`Kept`]), whether that fold left the averaged distribution as it was, so that folding
 /// again would too, and whether that settled average is the softmax itself, bit for bit, so
 /// that a decision drawing from the softmax may copy the average instead of computing it (most
 /// settled averages are: a near-deterministic softmax is its own moving average's fixed point).
@@ -51,9 +51,6 @@ pub struct Fold<'a> {
     pub expert: Expert,
     /// The action is drawn from this expert's softmax, so it is needed whatever the flags say.
     pub drawn: bool,
-    /// The softmax is written where it stays between decisions (an `mf` run's `p_mf`), so while
-    /// the row is unchanged it is there already.
-    pub kept: bool,
     /// The expert's Q row in the state.
     pub q: &'a [f64],
     /// G(s, .) of Eq. 8.
@@ -66,6 +63,17 @@ pub struct Fold<'a> {
     pub tau: f64,
     /// The moving averages' weight of the new value.
     pub alpha: f64,
+}
+
+/// The softmax row a fold writes is a kept slot, where it stays between decisions until another
+/// state's softmax takes the slot: `owner` is the state whose softmax the slot holds, `state` the
+/// folding one. While the Q row is unchanged and the slot still the state's, the softmax is there
+/// already and is neither computed nor copied.
+pub struct Kept<'a> {
+    /// The state whose softmax the slot holds (`u32::MAX`: none yet).
+    pub owner: &'a mut u32,
+    /// The state of this fold.
+    pub state: u32,
 }
 
 impl Settled {
@@ -83,14 +91,15 @@ impl Settled {
     }
 
     /// Writes the softmax of `fold.q` (with bonus `fold.bonus * fold.g`) into `p` when it is
-    /// needed, folds it into `avg` unless that is known to change nothing, and updates the
-    /// flags; a changed `avg` makes its kept `entropy` unknown (NaN). Returns whether `avg`
-    /// changed.
+    /// needed and not there already (`kept`), folds it into `avg` unless that is known to change
+    /// nothing, and updates the flags; a changed `avg` makes its kept `entropy` unknown (NaN).
+    /// Returns whether `avg` changed.
     #[inline(always)]
     pub fn fold(
         &mut self,
         fold: &Fold<'_>,
         p: &mut [f64],
+        kept: Option<Kept<'_>>,
         avg: &mut [f64],
         entropy: &mut f64,
     ) -> bool {
@@ -98,12 +107,15 @@ impl Settled {
         let equal = fold.expert.equal_bit();
         let both = softmax | average;
         let unchanged = self.0 & both == both;
-        let fresh = fold.kept && self.0 & softmax != 0;
+        let fresh = self.0 & softmax != 0 && kept.as_ref().is_some_and(|k| *k.owner == k.state);
         if !fresh && (fold.drawn || !unchanged) {
             if unchanged && self.0 & equal != 0 {
                 p.copy_from_slice(avg);
             } else {
                 softmax_graded_by(fold.signed, fold.q, fold.g, fold.bonus, fold.tau, p);
+            }
+            if let Some(k) = kept {
+                *k.owner = k.state;
             }
         }
         if unchanged {
@@ -133,21 +145,26 @@ mod tests {
 
     const G: [u8; 3] = [0; 3];
 
-    /// One state's MF softmax buffer, averaged distribution, flags and kept entropy.
+    /// One state's MF softmax buffer (and the state whose softmax it holds, when kept),
+    /// averaged distribution, flags and kept entropy.
     struct State {
         p: [f64; 3],
+        owner: u32,
         avg: [f64; 3],
         settled: Settled,
         entropy: f64,
     }
 
+    /// The state the tests fold in.
+    const STATE: u32 = 5;
+
     impl State {
-        /// [`Settled::fold`] of the MF expert on row `q` (temperature 0.5, alpha 0.6, no bonus).
+        /// [`Settled::fold`] of the MF expert on row `q` (temperature 0.5, alpha 0.6, no bonus),
+        /// into a kept slot if `kept`, else into scratch space.
         fn fold(&mut self, q: &[f64; 3], drawn: bool, kept: bool) -> bool {
             let fold = Fold {
                 expert: Expert::Mf,
                 drawn,
-                kept,
                 q,
                 g: &G,
                 signed: false,
@@ -155,8 +172,12 @@ mod tests {
                 tau: 0.5,
                 alpha: 0.6,
             };
+            let kept = kept.then_some(Kept {
+                owner: &mut self.owner,
+                state: STATE,
+            });
             self.settled
-                .fold(&fold, &mut self.p, &mut self.avg, &mut self.entropy)
+                .fold(&fold, &mut self.p, kept, &mut self.avg, &mut self.entropy)
         }
     }
 
@@ -180,6 +201,7 @@ mod tests {
         assert_eq!(p, [1.0, 0.0, 0.0]);
         let mut st = State {
             p: [f64::NAN; 3],
+            owner: u32::MAX,
             avg: [1.0 / 3.0; 3],
             settled: Settled::default(),
             entropy: 0.0,
@@ -203,6 +225,7 @@ mod tests {
         // A kept entropy of the average; folding that moves the average makes it unknown.
         let mut st = State {
             p: [0.0; 3],
+            owner: u32::MAX,
             avg: [1.0 / 3.0; 3],
             settled: Settled::default(),
             entropy: 1.0,
@@ -234,10 +257,22 @@ mod tests {
         // a), so the flag says they differ and the drawn softmax above was computed.
         assert_ne!(settled_avg, softmax(&q));
         assert_eq!(st.settled, MF_BOTH);
-        // Kept where it stays (an mf run's p_mf): not even the drawn softmax is recomputed.
+        // Kept in a slot: the first drawn fold writes the slot's softmax and owns it; the next
+        // does not even recompute it, until another state takes the slot.
+        st.p = [f64::NAN; 3];
+        assert!(!st.fold(&q, true, true));
+        assert_eq!((st.p, st.owner), (softmax(&q), STATE));
         st.p = [f64::NAN; 3];
         assert!(!st.fold(&q, true, true));
         assert!(st.p.iter().all(|x| x.is_nan()));
+        st.owner = STATE + 1;
+        assert!(!st.fold(&q, true, true));
+        assert_eq!((st.p, st.owner), (softmax(&q), STATE));
+        // Not drawn and settled: the slot is neither written nor taken.
+        st.owner = STATE + 1;
+        st.p = [f64::NAN; 3];
+        assert!(!st.fold(&q, false, true));
+        assert!(st.p.iter().all(|x| x.is_nan()) && st.owner == STATE + 1);
         // A changed row is computed and folded again.
         st.settled.q_changed(Expert::Mf);
         assert_eq!(st.settled, Settled::default());
@@ -252,6 +287,7 @@ mod tests {
         let mb_both = Settled(4 | 8);
         let mut st = State {
             p: [0.0; 3],
+            owner: u32::MAX,
             avg: [0.5, 0.25, 0.25],
             settled: mb_both,
             entropy: 0.0,

@@ -13,7 +13,8 @@
 
 use std::time::Instant;
 
-use super::settled::{Expert, Fold};
+use super::settled::{Expert, Fold, Kept};
+use super::storage::kept_slot;
 use super::trace::{self, Actor, HumanEvent};
 use super::{Checkpoint, RunView, Settled, initial_state, uniform};
 use crate::arbiter::{self, Arbiter, Draw, Inputs, Mixed, Own, Transition, Visit};
@@ -40,9 +41,7 @@ pub fn step(spec: &Spec, params: &Params, run: &mut RunView<'_>) {
 pub(super) fn run_until(spec: &Spec, params: &Params, run: &mut RunView<'_>, end: u64) {
     // Without a schedule, a human that never interacts and the environment's own reward, no
     // human function can do anything: the steps skip them.
-    let human = run.plan.is_some()
-        || params.human.interaction != Interaction::None
-        || params.reward_source != RewardSource::Environment;
+    let human = run.plan.is_some() || params.human_may_act();
     // A traced run records a row per experiment step: its own compiled loop.
     let trace = !run.trace.is_empty();
     let code = Loop {
@@ -604,15 +603,12 @@ fn decide<A: Arbiter, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
     } else {
         0.0
     };
-    // An `mf` run without a human keeps its softmax of each state in `p_mf`; other runs compute
-    // theirs into scratch space.
-    let keeps_softmax = mf_alone::<A>() && !HUMAN;
-    let (scratch_mf, p_mb) = run.scratch.split_at_mut(n_a);
-    let p_mf = if keeps_softmax {
-        &mut run.p_mf[row.clone()]
-    } else {
-        scratch_mf
-    };
+    // A run without a human that folds keeps its experts' softmaxes between decisions where the
+    // batch holds slots for them; other runs compute theirs into scratch space.
+    let keeps = A::AVERAGES && !HUMAN;
+    let (scratch_mf, scratch_mb) = run.scratch.split_at_mut(n_a);
+    let (p_mf, kept_mf) = kept_or(keeps, run.kept_p_mf, run.kept_owner_mf, s, scratch_mf);
+    let (p_mb, kept_mb) = kept_or(keeps, run.kept_p_mb, run.kept_owner_mb, s, scratch_mb);
     // Without a human, flags say which folds would change nothing.
     let mut none = Settled::default();
     let settled = if HUMAN {
@@ -644,7 +640,6 @@ fn decide<A: Arbiter, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
         let fold = Fold {
             expert: Expert::Mf,
             drawn: (A::DRAW == Draw::Expert && !choice.use_mb) || whole == Some(Expert::Mf),
-            kept: keeps_softmax,
             q: &run.q_mf[row.clone()],
             g,
             signed,
@@ -655,6 +650,7 @@ fn decide<A: Arbiter, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
         settled.fold(
             &fold,
             p_mf,
+            kept_mf,
             &mut run.pavg_mf[row.clone()],
             &mut run.entropy_mf[s],
         );
@@ -667,7 +663,6 @@ fn decide<A: Arbiter, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
         let fold = Fold {
             expert: Expert::Mb,
             drawn: (A::DRAW == Draw::Expert && choice.use_mb) || whole == Some(Expert::Mb),
-            kept: false,
             q: &run.q_mb[row.clone()],
             g,
             signed,
@@ -678,6 +673,7 @@ fn decide<A: Arbiter, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
         settled.fold(
             &fold,
             p_mb,
+            kept_mb,
             &mut run.pavg_mb[row.clone()],
             &mut run.entropy_mb[s],
         );
@@ -735,6 +731,30 @@ fn decide<A: Arbiter, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
         Draw::PerAction => Actor::Mf,
     };
     (a, actor, choice.p_mb)
+}
+
+/// The row an expert's softmax in state `s` is written to: its kept slot among `rows` (with the
+/// slot's `owners` entry, to tell whether it holds the state's softmax already) when the run
+/// `keeps` softmaxes and the batch holds slots, else `scratch`.
+#[inline(always)]
+fn kept_or<'a>(
+    keeps: bool,
+    rows: &'a mut [f64],
+    owners: &'a mut [u32],
+    s: usize,
+    scratch: &'a mut [f64],
+) -> (&'a mut [f64], Option<Kept<'a>>) {
+    let slots = owners.len();
+    if !keeps || slots == 0 {
+        return (scratch, None);
+    }
+    let n_a = scratch.len();
+    let slot = kept_slot(s, slots);
+    let kept = Kept {
+        owner: &mut owners[slot],
+        state: s as u32,
+    };
+    (&mut rows[slot * n_a..(slot + 1) * n_a], Some(kept))
 }
 
 /// Whether rule `A` runs the MF expert alone: such a run keeps each state's MF softmax and Q row

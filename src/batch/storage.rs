@@ -31,9 +31,13 @@ pub struct Sizes {
     pub avg_mf_states: usize,
     /// The same for the MB expert.
     pub avg_mb_states: usize,
-    /// States of the tables only runs of the MF expert alone keep (their softmax and row
-    /// maxima between decisions; two-expert runs would outgrow 64 KiB of state per tidy run).
+    /// States of the table only runs of the MF expert alone keep (its row maxima between
+    /// decisions).
     pub kept_states: usize,
+    /// Slots of the MF softmaxes kept between decisions ([`kept_slots`]).
+    pub kept_mf_slots: usize,
+    /// The same for the MB expert.
+    pub kept_mb_slots: usize,
     /// Observable outcomes of the MB model (0 when no run runs MB).
     pub outcomes: usize,
     /// Ring slots per pair of the MB model: the largest window N of the runs.
@@ -67,6 +71,12 @@ impl Sizes {
         let states_if = |yes: bool| if yes { n_s } else { 0 };
         let mb = any(Controller::runs_mb);
         let max = |f: &dyn Fn(&Params) -> usize| params.clone().map(f).max().unwrap_or(0);
+        // Only a run without a human keeps a softmax it folds (a human may change its G).
+        let folds_alone = |runs: &dyn Fn(Controller) -> bool| {
+            params
+                .clone()
+                .any(|p| runs(p.controller) && p.controller.averages() && !p.human_may_act())
+        };
         Sizes {
             states: n_s,
             actions: spec.n_actions,
@@ -75,6 +85,18 @@ impl Sizes {
             avg_mf_states: states_if(any(|c| c.runs_mf() && c.averages())),
             avg_mb_states: states_if(any(|c| c.runs_mb() && c.averages())),
             kept_states: states_if(any(|c| c.runs_mf() && !c.runs_mb())),
+            kept_mf_slots: kept_slots(
+                n_s,
+                any(|c| c.runs_mf() && !c.runs_mb()),
+                folds_alone(&|c| c.runs_mf()),
+                KEPT_SLOTS.0,
+            ),
+            kept_mb_slots: kept_slots(
+                n_s,
+                any(|c| c.runs_mb() && !c.runs_mf()),
+                folds_alone(&|c| c.runs_mb()),
+                KEPT_SLOTS.1,
+            ),
             outcomes: if mb { outcomes } else { 0 },
             window_cap: max(&|p| p.window_n as usize).max(1),
             dirty_words: if mb {
@@ -98,6 +120,33 @@ impl Sizes {
     fn mb_pairs(&self) -> usize {
         self.mb_states * self.actions
     }
+}
+
+/// Slots of a two-expert run's kept MF softmaxes, and of its MB ones: powers of two, so that a
+/// state finds its slot with a mask ([`kept_slot`]). At steady state a run decides in a few
+/// states over and over (19 in tidy1), mostly with one expert, and the slots hold most of their
+/// softmaxes; their number is what the 64 KiB of state per tidy run of every rule leaves room
+/// for (a slot per state, as a single expert's run has, would exceed it).
+pub const KEPT_SLOTS: (usize, usize) = (16, 8);
+
+/// Slots of an expert's kept softmaxes in a batch of `states` states: one per state when a run
+/// runs the expert `alone`, `cap` (or one per state, if fewer) when a run runs it with the other
+/// expert and `folds` its softmax without a human (only such a fold keeps one), else none.
+fn kept_slots(states: usize, alone: bool, folds: bool, cap: usize) -> usize {
+    if alone {
+        states
+    } else if folds {
+        states.min(cap)
+    } else {
+        0
+    }
+}
+
+/// The slot of state `s` among `slots` kept softmaxes (more than 0, and a power of two if fewer
+/// than the states): `s` itself when there is a slot per state, else `s` masked.
+#[inline(always)]
+pub(super) fn kept_slot(s: usize, slots: usize) -> usize {
+    if s < slots { s } else { s & (slots - 1) }
 }
 
 /// Each array's row: `name: element type [per-run length] = initial value` (a view row; the
@@ -266,9 +315,15 @@ tables! {
         entropy_mf: f64 [z.avg_mf_states] = f64::NAN;
         /// The same for the MB averaged distribution.
         entropy_mb: f64 [z.avg_mb_states] = f64::NAN;
-        /// For an `mf` run without a human: the MF softmax last computed in each state,
-        /// `[state, action]` (empty for other runs).
-        p_mf: f64 [z.kept_states * z.actions] = 0.0;
+        /// For a run without a human: MF softmaxes kept between decisions, `[slot, action]`
+        /// ([`kept_slot`]; empty for runs that keep none).
+        kept_p_mf: f64 [z.kept_mf_slots * z.actions] = 0.0;
+        /// The state whose MF softmax each slot holds (`u32::MAX`: none).
+        kept_owner_mf: u32 [z.kept_mf_slots] = u32::MAX;
+        /// The same for the MB expert.
+        kept_p_mb: f64 [z.kept_mb_slots * z.actions] = 0.0;
+        /// The state whose MB softmax each slot holds.
+        kept_owner_mb: u32 [z.kept_mb_slots] = u32::MAX;
         /// For an `mf` run without a human: the maximum of each state's MF Q row, folded as
         /// learning folds it.
         max_mf: f64 [z.kept_states] = crate::expert::max_of(&[p.q_init]);
