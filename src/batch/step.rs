@@ -508,8 +508,8 @@ fn encounter<'r>(
 /// What a decision computes from rows that have not changed since the last decision in the
 /// state is taken from then, bit for bit the same: the entropies of the averaged distributions
 /// (kept per state until a moving average changes the row) and, without a human, each expert's
-/// softmax and moving average while its Q row is unchanged (see [`Settled`]; an
-/// `mf` run keeps the softmax itself). Once Q-learning has converged in a state, none of them
+/// softmax and moving average while its Q row is unchanged (see [`Settled`]; the softmax
+/// itself while its kept slot still holds it, [`kept_or`]). Once Q-learning has converged in a state, none of them
 /// changes: about 19 decisions in 20 of a 3,000-step tidy1 `mf` run.
 #[inline(always)]
 fn decide<A: Arbiter, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
@@ -757,8 +757,8 @@ fn kept_or<'a>(
     (&mut rows[slot * n_a..(slot + 1) * n_a], Some(kept))
 }
 
-/// Whether rule `A` runs the MF expert alone: such a run keeps each state's MF softmax and Q row
-/// maximum between decisions (the batch holds those tables for such runs only).
+/// Whether rule `A` runs the MF expert alone: such a run keeps each state's MF Q row maximum
+/// between decisions (the batch holds that table for such runs only).
 #[inline(always)]
 const fn mf_alone<A: Arbiter>() -> bool {
     A::RUNS_MF && !A::RUNS_MB

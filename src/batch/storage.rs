@@ -71,8 +71,10 @@ impl Sizes {
         let states_if = |yes: bool| if yes { n_s } else { 0 };
         let mb = any(Controller::runs_mb);
         let max = |f: &dyn Fn(&Params) -> usize| params.clone().map(f).max().unwrap_or(0);
+        let mf_alone = any(|c| c.runs_mf() && !c.runs_mb());
+        let mb_alone = any(|c| c.runs_mb() && !c.runs_mf());
         // Only a run without a human keeps a softmax it folds (a human may change its G).
-        let folds_alone = |runs: &dyn Fn(Controller) -> bool| {
+        let folds_unattended = |runs: &dyn Fn(Controller) -> bool| {
             params
                 .clone()
                 .any(|p| runs(p.controller) && p.controller.averages() && !p.human_may_act())
@@ -84,17 +86,17 @@ impl Sizes {
             mb_states: states_if(mb),
             avg_mf_states: states_if(any(|c| c.runs_mf() && c.averages())),
             avg_mb_states: states_if(any(|c| c.runs_mb() && c.averages())),
-            kept_states: states_if(any(|c| c.runs_mf() && !c.runs_mb())),
+            kept_states: states_if(mf_alone),
             kept_mf_slots: kept_slots(
                 n_s,
-                any(|c| c.runs_mf() && !c.runs_mb()),
-                folds_alone(&|c| c.runs_mf()),
+                mf_alone,
+                folds_unattended(&|c| c.runs_mf()),
                 KEPT_SLOTS.0,
             ),
             kept_mb_slots: kept_slots(
                 n_s,
-                any(|c| c.runs_mb() && !c.runs_mf()),
-                folds_alone(&|c| c.runs_mb()),
+                mb_alone,
+                folds_unattended(&|c| c.runs_mb()),
                 KEPT_SLOTS.1,
             ),
             outcomes: if mb { outcomes } else { 0 },
