@@ -398,58 +398,65 @@ impl Model<'_> {
             terminal: self.terminal,
         };
         let mut report = ViReport::default();
+        // At steady state most calls find no pair dirty: one OR over the words (which the
+        // compiler vectorises) says so without walking the set a word at a time, and a sweep that
+        // computes nothing marks nothing, so every sweep of such a call is empty.
+        let clean = dirty.is_empty();
         loop {
             let mut delta = 0.0;
-            // Ascending over the dirty pairs, re-reading the bit set as it goes: pairs marked
-            // ahead of the cursor are computed in this sweep (as a full sweep would read the new
-            // maximum), pairs marked behind it in the next.
-            let mut next_pair = 0;
-            // The state of the current pair, followed as pairs ascend (a division per pair
-            // would cost more than the arithmetic of a deterministic pair).
-            let (mut s, mut row_end) = (0, n_actions);
-            while let Some(sa) = dirty.next_from(next_pair) {
-                next_pair = sa + 1;
-                dirty.clear(sa);
-                let kept = ring_len[sa];
-                if kept == 0 {
-                    continue;
-                }
-                if sa >= row_end {
-                    s = if sa < row_end + n_actions {
-                        s + 1
-                    } else {
-                        sa / n_actions
-                    };
-                    row_end = (s + 1) * n_actions;
-                }
-                let value = pair_value(&terms, self.best, sa, kept, q, gamma);
-                let old = q[sa];
-                delta += (value - old).abs();
-                if value.to_bits() != old.to_bits() {
-                    let before = row_max(self.best, q, s, n_actions);
-                    q[sa] = value;
-                    report.changed = true;
-                    row_changed(s);
-                    // The new maximum without rereading the row when the changed entry decides
-                    // it: a larger value is the new maximum; an entry below the maximum left it
-                    // in place. Otherwise (the maximum itself fell, ties, NaN) reread the row.
-                    let after = if value > before {
-                        value
-                    } else if old < before {
-                        before
-                    } else {
-                        max_of(&q[s * n_actions..(s + 1) * n_actions])
-                    };
-                    self.best[s] = after;
-                    if after.to_bits() != before.to_bits() {
-                        for &p in obs.preds.of(s) {
-                            dirty.mark(p as usize);
+            if !clean {
+                // Ascending over the dirty pairs, re-reading the bit set as it goes: pairs
+                // marked ahead of the cursor are computed in this sweep (as a full sweep would
+                // read the new maximum), pairs marked behind it in the next.
+                let mut next_pair = 0;
+                // The state of the current pair, followed as pairs ascend (a division per pair
+                // would cost more than the arithmetic of a deterministic pair).
+                let (mut s, mut row_end) = (0, n_actions);
+                while let Some(sa) = dirty.next_from(next_pair) {
+                    next_pair = sa + 1;
+                    dirty.clear(sa);
+                    let kept = ring_len[sa];
+                    if kept == 0 {
+                        continue;
+                    }
+                    if sa >= row_end {
+                        s = if sa < row_end + n_actions {
+                            s + 1
+                        } else {
+                            sa / n_actions
+                        };
+                        row_end = (s + 1) * n_actions;
+                    }
+                    let value = pair_value(&terms, self.best, sa, kept, q, gamma);
+                    let old = q[sa];
+                    delta += (value - old).abs();
+                    if value.to_bits() != old.to_bits() {
+                        let before = row_max(self.best, q, s, n_actions);
+                        q[sa] = value;
+                        report.changed = true;
+                        row_changed(s);
+                        // The new maximum without rereading the row when the changed entry
+                        // decides it: a larger value is the new maximum; an entry below the
+                        // maximum left it in place. Otherwise (the maximum itself fell, ties,
+                        // NaN) reread the row.
+                        let after = if value > before {
+                            value
+                        } else if old < before {
+                            before
+                        } else {
+                            max_of(&q[s * n_actions..(s + 1) * n_actions])
+                        };
+                        self.best[s] = after;
+                        if after.to_bits() != before.to_bits() {
+                            for &p in obs.preds.of(s) {
+                                dirty.mark(p as usize);
+                            }
                         }
                     }
-                }
-                if !value.is_finite() {
-                    // A full sweep would meet it again (and a NaN or infinite |dQ|) next time.
-                    dirty.mark(sa);
+                    if !value.is_finite() {
+                        // A full sweep would meet it again (and a NaN or infinite |dQ|) next time.
+                        dirty.mark(sa);
+                    }
                 }
             }
             if sweep_ends(&mut report, delta, epsilon, max_sweeps) {
@@ -567,6 +574,12 @@ impl<'d> DirtySet<'d> {
     #[inline(always)]
     fn clear(&mut self, sa: usize) {
         self.words[sa / 64] &= !(1 << (sa % 64));
+    }
+
+    /// Whether no pair is dirty.
+    #[inline(always)]
+    fn is_empty(&self) -> bool {
+        self.words.iter().fold(0, |any, &w| any | w) == 0
     }
 
     /// Every pair dirty, and no padding bit (so that every set bit is a pair).
