@@ -509,8 +509,8 @@ fn encounter<'r>(
 /// state is taken from then, bit for bit the same: the entropies of the averaged distributions
 /// (kept per state until a moving average changes the row) and, without a human, each expert's
 /// softmax and moving average while its Q row is unchanged (see [`Settled`]; the softmax
-/// itself while its kept slot still holds it, [`kept_or`]). Once Q-learning has converged in a state, none of them
-/// changes: about 19 decisions in 20 of a 3,000-step tidy1 `mf` run.
+/// itself while its kept slot still holds it, [`kept_or`]). Once Q-learning has converged in a
+/// state, none of them changes: about 19 decisions in 20 of a 3,000-step tidy1 `mf` run.
 #[inline(always)]
 fn decide<A: Arbiter, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
     spec: &Spec,
