@@ -1,0 +1,91 @@
+//! Time per agent-step of some rules against EC's, at steady state, on some tasks: the rules'
+//! table of `mbmf bench` for a chosen few, with as many paired windows as asked (more pairs, a
+//! steadier median). For trying one change to the step against a saved binary of the one
+//! before: build this example at both, and run them in turn.
+//!
+//! `cargo run --release --example rule_ratios -- tidy1,tidy2 fixed,vpi 9`
+//!
+//! Arguments: tasks (any `--task` of `mbmf run`), controllers (names as `--controller` takes
+//! them), the pairs of windows per rule (default 9) and the runs (default 1,024, as `mbmf
+//! bench`; 16 runs stay in cache from one window to the next, which leaves the arithmetic
+//! alone). Each line gives the median over the pairs of the rule's time over EC's, and the
+//! rule's median rate.
+
+use std::process::ExitCode;
+use std::sync::Arc;
+
+use mbmf::bench::{Steady, paired, pool};
+use mbmf::env::registry::{default_babbling, default_steps};
+use mbmf::params::{Combine, Controller, Params};
+
+/// Steps per timed window: those of `mbmf bench`.
+const WINDOW: u64 = 1000;
+
+fn main() -> ExitCode {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let usage = "usage: rule_ratios TASK[,TASK...] CONTROLLER[,CONTROLLER...] [PAIRS [RUNS]]";
+    let (Some(tasks), Some(rules)) = (args.first(), args.get(1)) else {
+        eprintln!("{usage}");
+        return ExitCode::from(2);
+    };
+    let Ok(pairs) = args.get(2).map_or(Ok(9), |p| p.parse::<usize>()) else {
+        eprintln!("PAIRS must be a whole number of windows; {usage}");
+        return ExitCode::from(2);
+    };
+    let Ok(runs @ 1..) = args.get(3).map_or(Ok(1024), |r| r.parse::<usize>()) else {
+        eprintln!("RUNS must be a whole number of runs, at least 1; {usage}");
+        return ExitCode::from(2);
+    };
+    let mut controllers = Vec::new();
+    for name in rules.split(',') {
+        match Controller::ALL.iter().find(|c| c.name() == name) {
+            Some(&c) => controllers.push(c),
+            None => {
+                let known: Vec<_> = Controller::ALL.iter().map(|c| c.name()).collect();
+                eprintln!("unknown controller {name:?}; known: {}", known.join(", "));
+                return ExitCode::from(2);
+            }
+        }
+    }
+    match ratios(tasks, &controllers, pairs, runs) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(message) => {
+            eprintln!("error: {message}");
+            ExitCode::from(1)
+        }
+    }
+}
+
+/// Prints each rule's time over EC's on each task.
+fn ratios(
+    tasks: &str,
+    controllers: &[Controller],
+    pairs: usize,
+    runs: usize,
+) -> Result<(), String> {
+    let one = pool(1).map_err(|e| e.to_string())?;
+    for task in tasks.split(',') {
+        let spec = Arc::new(mbmf::env::load(task).map_err(|e| e.to_string())?);
+        let steady = |controller| {
+            let params = Params {
+                controller,
+                combine: Combine::Select,
+                steps: default_steps(task),
+                babbling: default_babbling(task),
+                ..Params::default()
+            };
+            Steady::new(&spec, params, runs, WINDOW).map_err(|e| e.to_string())
+        };
+        let ec = steady(Controller::Ec)?;
+        for &controller in controllers {
+            let timed = paired(&ec, &steady(controller)?, &one, pairs);
+            println!(
+                "{task}, {runs} runs, {}: {:.3}x ec's time ({:.2} M steps/s)",
+                controller.name(),
+                timed.time_over_base,
+                timed.rate / 1e6
+            );
+        }
+    }
+    Ok(())
+}
