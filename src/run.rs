@@ -33,7 +33,7 @@ use crate::batch::{Batch, RunConfig};
 use crate::env::Spec;
 use crate::error::IoError;
 use crate::output::{self, OutputError};
-use crate::params::{ConfigError, Controller, Interaction, Params};
+use crate::params::{Combine, ConfigError, Controller, Interaction, Params};
 use crate::pipeline::{self, Interrupted, MemoryError};
 use crate::schedule::{self, Schedule, ScheduleError};
 use crate::sizing::{self, SizeError};
@@ -326,8 +326,9 @@ pub struct Open {
     staging: Staging,
 }
 
-/// One configuration's summary: (mean, sample sd) of total reward, total cost and MB share
-/// over its runs (the share over the runs that made decisions; `None` if none did).
+/// One configuration's summary: (mean, sample sd) of total reward, total cost, MB share and
+/// mean P(MB) over its runs (the last two over the runs that made decisions; `None` if none
+/// did).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Row {
     /// The controller of the runs (configurations of one controller are merged).
@@ -338,8 +339,13 @@ pub struct Row {
     pub reward: (f64, f64),
     /// Total cost.
     pub cost: (f64, f64),
-    /// Share of decisions taken by the MB expert.
+    /// Share of decisions taken by the MB expert (with `combine = mix`: weighted above 1/2,
+    /// SPEC 12.1).
     pub share: Option<(f64, f64)>,
+    /// A run's P(MB) averaged over its decisions (`p_mb_mean` of the runs table).
+    pub weight: Option<(f64, f64)>,
+    /// The runs mixed the experts' values (`combine = mix`, for a rule that gives a weight).
+    pub mixes: bool,
 }
 
 /// What a finished run wrote.
@@ -658,12 +664,13 @@ impl Drop for Staging {
     }
 }
 
-/// One controller's values of the summary, spilled to an unnamed temporary file (24 bytes per
+/// One controller's values of the summary, spilled to an unnamed temporary file (32 bytes per
 /// run) so that memory does not grow with the runs, and read back in passes to compute the
 /// exact two-pass statistics of [`mean_sd`] (a one-pass formula would move the last printed
 /// digit of some means).
 struct Spill {
     controller: Controller,
+    mixes: bool,
     runs: usize,
     file: std::io::BufWriter<std::fs::File>,
 }
@@ -696,20 +703,25 @@ impl Summary {
                     )))?;
                     self.spills.push(Spill {
                         controller: c,
+                        mixes: c.combines() && config.params.combine == Combine::Mix,
                         runs: 0,
                         file: std::io::BufWriter::new(file),
                     });
                     self.spills.len() - 1
                 }
             };
-            let share = if stats.decisions > 0 {
-                stats.mb_decisions as f64 / stats.decisions as f64
-            } else {
-                f64::NAN
+            let per_decision = |x: f64| {
+                if stats.decisions > 0 {
+                    x / stats.decisions as f64
+                } else {
+                    f64::NAN
+                }
             };
+            let share = per_decision(stats.mb_decisions as f64);
+            let weight = per_decision(stats.p_mb_sum);
             let spill = &mut self.spills[i];
             spill.runs += 1;
-            for x in [stats.total_reward, stats.cost_total(), share] {
+            for x in [stats.total_reward, stats.cost_total(), share, weight] {
                 spill
                     .file
                     .write_all(&x.to_le_bytes())
@@ -725,8 +737,7 @@ impl Summary {
         self.spills
             .into_iter()
             .map(|spill| {
-                let runs = spill.runs;
-                let controller = spill.controller;
+                let (runs, controller, mixes) = (spill.runs, spill.controller, spill.mixes);
                 let file = spill
                     .file
                     .into_inner()
@@ -734,18 +745,24 @@ impl Summary {
                 let reward = passes(&file, 0).map_err(read_back())?;
                 let cost = passes(&file, 1).map_err(read_back())?;
                 let share = passes(&file, 2).map_err(read_back())?;
+                let weight = passes(&file, 3).map_err(read_back())?;
                 Ok(Row {
                     controller,
                     runs,
                     reward,
                     cost,
-                    // Shares are finite, so NaN means no run made a decision.
+                    // Shares and weights are finite, so NaN means no run made a decision.
                     share: (!share.0.is_nan()).then_some(share),
+                    weight: (!weight.0.is_nan()).then_some(weight),
+                    mixes,
                 })
             })
             .collect()
     }
 }
+
+/// Values per run in a spill file: total reward, total cost, MB share, mean P(MB).
+const SPILLED: usize = 4;
 
 /// Runs the arithmetic of [`mean_sd`] over column `k` of a spill file (NaN: no value), reading it
 /// once per pass.
@@ -755,7 +772,7 @@ fn passes(file: &std::fs::File, k: usize) -> std::io::Result<(f64, f64)> {
         let mut handle = file;
         handle.rewind()?;
         let mut reader = std::io::BufReader::new(handle);
-        let mut record = [0u8; 24];
+        let mut record = [0u8; 8 * SPILLED];
         loop {
             match reader.read_exact(&mut record) {
                 Ok(()) => {}

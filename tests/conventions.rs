@@ -273,6 +273,69 @@ fn run_json_is_one_object_matching_the_runs_file() {
     }
 }
 
+/// With `combine = mix` no expert is drawn, so the MB share (decisions weighted above 1/2)
+/// says little: the table marks the rule `(mix)` and gives its mean P(MB) under it, and the
+/// JSON rows carry `combine` and `p_mb_mean`. `mf` ignores `combine`.
+#[test]
+fn a_mixed_rule_is_marked_and_its_weight_shown() {
+    let dir = TempDir::new().expect("a temporary folder");
+    let args = |out: &str, json: bool| {
+        let out = dir.path().join(out);
+        let mut args: Vec<String> = [
+            "run",
+            "--controller",
+            "fixed,mf",
+            "--combine",
+            "mix",
+            "--w-mb",
+            "0.25",
+            "--runs",
+            "3",
+            "--steps",
+            "200",
+            "--out",
+            out.to_str().expect("UTF-8 path"),
+        ]
+        .map(String::from)
+        .to_vec();
+        if json {
+            args.push("--json".into());
+        }
+        args
+    };
+    let table = stdout_of(
+        &args("table", false)
+            .iter()
+            .map(String::as_str)
+            .collect::<Vec<_>>(),
+    );
+    let lines: Vec<&str> = table.lines().collect();
+    assert!(lines[2].starts_with("fixed (mix) "), "{table}");
+    assert!(lines[3].starts_with("mf "), "{table}");
+    // Weights of 0.25 are never above 1/2; every decision weighs 0.25 exactly.
+    assert!(lines[2].ends_with("0.000 ± 0.000"), "{table}");
+    assert!(
+        lines[4].ends_with("Mean P(MB): fixed 0.250 ± 0.000"),
+        "{table}"
+    );
+
+    let text = stdout_of(
+        &args("json", true)
+            .iter()
+            .map(String::as_str)
+            .collect::<Vec<_>>(),
+    );
+    let report: serde_json::Value = serde_json::from_str(&text).expect("one JSON object");
+    let rows = report["controllers"].as_array().expect("rows");
+    assert_eq!(rows[0]["controller"], "fixed");
+    assert_eq!(rows[0]["combine"], "mix");
+    assert_eq!(rows[0]["p_mb_mean"], 0.25);
+    assert_eq!(rows[0]["mb_share_mean"], 0.0);
+    assert_eq!(rows[1]["controller"], "mf");
+    assert_eq!(rows[1]["combine"], "select");
+    assert_eq!(rows[1]["p_mb_mean"], 0.0);
+}
+
 const SWEEP: &str = r#"
 seeds = 2
 master_seed = 11

@@ -292,8 +292,10 @@ fn json_rows(rows: &[run::Row]) -> Vec<serde_json::Value> {
     rows.iter()
         .map(|row| {
             let (m, ms) = row.share.unwrap_or((f64::NAN, f64::NAN));
+            let (w, ws) = row.weight.unwrap_or((f64::NAN, f64::NAN));
             serde_json::json!({
                 "controller": row.controller.name(),
+                "combine": if row.mixes { "mix" } else { "select" },
                 "runs": row.runs,
                 "total_reward_mean": row.reward.0,
                 "total_reward_sd": row.reward.1,
@@ -301,19 +303,37 @@ fn json_rows(rows: &[run::Row]) -> Vec<serde_json::Value> {
                 "total_cost_sd": row.cost.1,
                 "mb_share_mean": m,
                 "mb_share_sd": ms,
+                "p_mb_mean": w,
+                "p_mb_sd": ws,
             })
         })
         .collect()
 }
 
-/// The table: mean ± standard deviation per controller ("-" where no run has a value).
+/// The table: mean ± standard deviation per controller ("-" where no run has a value). With
+/// `combine = mix` no expert is drawn, so a line under the table gives the weight P(MB) the
+/// share column cannot show.
 fn table(rows: &[run::Row], task: &str, runs: usize, seconds: f64) -> String {
     use std::fmt::Write as _;
+    let name = |row: &run::Row| {
+        let name = row.controller.name();
+        if row.mixes {
+            format!("{name} (mix)")
+        } else {
+            name.to_string()
+        }
+    };
+    let width = rows
+        .iter()
+        .map(|r| name(r).len())
+        .max()
+        .unwrap_or(0)
+        .max(10);
     let mut out = String::new();
     let _ = writeln!(out, "{task}: {runs} runs in {seconds:.2} s");
     let _ = writeln!(
         out,
-        "{:<10} {:>5} {:>22} {:>26} {:>18}",
+        "{:<width$} {:>5} {:>22} {:>26} {:>18}",
         "controller", "runs", "total reward", "total cost (ops)", "MB share"
     );
     for row in rows {
@@ -324,13 +344,29 @@ fn table(rows: &[run::Row], task: &str, runs: usize, seconds: f64) -> String {
         };
         let _ = writeln!(
             out,
-            "{:<10} {:>5} {:>12.1} ± {:<7.1} {:>15.4e} ± {:<8.2e} {share}",
-            row.controller.name(),
+            "{:<width$} {:>5} {:>12.1} ± {:<7.1} {:>15.4e} ± {:<8.2e} {share}",
+            name(row),
             row.runs,
             r,
             rs,
             c,
             cs,
+        );
+    }
+    let weights: Vec<String> = rows
+        .iter()
+        .filter(|row| row.mixes)
+        .filter_map(|row| {
+            let (w, ws) = row.weight?;
+            Some(format!("{} {w:.3} ± {ws:.3}", row.controller.name()))
+        })
+        .collect();
+    if !weights.is_empty() {
+        let _ = writeln!(
+            out,
+            "mix: no expert is drawn; MB share counts the decisions weighted P(MB) > 1/2. Mean \
+             P(MB): {}",
+            weights.join(", ")
         );
     }
     out
