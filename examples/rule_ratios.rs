@@ -14,12 +14,8 @@
 use std::process::ExitCode;
 use std::sync::Arc;
 
-use mbmf::bench::{Steady, paired, pool};
-use mbmf::env::registry::{default_babbling, default_steps};
-use mbmf::params::{Combine, Controller, Params};
-
-/// Steps per timed window: those of `mbmf bench`.
-const WINDOW: u64 = 1000;
+use mbmf::bench::{paired, pool, rule_at_steady_state};
+use mbmf::params::{Combine, Controller};
 
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -67,14 +63,8 @@ fn ratios(
     for task in tasks.split(',') {
         let spec = Arc::new(mbmf::env::load(task).map_err(|e| e.to_string())?);
         let steady = |controller| {
-            let params = Params {
-                controller,
-                combine: Combine::Select,
-                steps: default_steps(task),
-                babbling: default_babbling(task),
-                ..Params::default()
-            };
-            Steady::new(&spec, params, runs, WINDOW).map_err(|e| e.to_string())
+            rule_at_steady_state(&spec, task, (controller, Combine::Select), runs)
+                .map_err(|e| e.to_string())
         };
         let ec = steady(Controller::Ec)?;
         for &controller in controllers {

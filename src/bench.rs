@@ -135,6 +135,27 @@ impl Steady {
     }
 }
 
+/// Steps per timed window of the rules' table (and of the steady rates).
+pub const WINDOW: u64 = 1000;
+
+/// `runs` runs of `controller` with `combine` on task `task` (`spec`), with the task's default
+/// steps and babbling, advanced to their last [`WINDOW`] steps: a row of the rules' table.
+pub fn rule_at_steady_state(
+    spec: &Arc<Spec>,
+    task: &str,
+    (controller, combine): (Controller, Combine),
+    runs: usize,
+) -> Result<Steady, BenchError> {
+    let params = Params {
+        controller,
+        combine,
+        steps: env::registry::default_steps(task),
+        babbling: env::registry::default_babbling(task),
+        ..Params::default()
+    };
+    Steady::new(spec, params, runs, WINDOW)
+}
+
 /// A rule's steady rate against a base rule's, from windows of the two timed in turn.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Paired {

@@ -279,36 +279,29 @@ fn run_json_is_one_object_matching_the_runs_file() {
 #[test]
 fn a_mixed_rule_is_marked_and_its_weight_shown() {
     let dir = TempDir::new().expect("a temporary folder");
-    let args = |out: &str, json: bool| {
-        let out = dir.path().join(out);
-        let mut args: Vec<String> = [
-            "run",
-            "--controller",
-            "fixed,mf",
-            "--combine",
-            "mix",
-            "--w-mb",
-            "0.25",
-            "--runs",
-            "3",
-            "--steps",
-            "200",
-            "--out",
-            out.to_str().expect("UTF-8 path"),
-        ]
-        .map(String::from)
-        .to_vec();
-        if json {
-            args.push("--json".into());
-        }
-        args
+    let out = |name: &str| {
+        dir.path()
+            .join(name)
+            .to_str()
+            .expect("UTF-8 path")
+            .to_owned()
     };
-    let table = stdout_of(
-        &args("table", false)
-            .iter()
-            .map(String::as_str)
-            .collect::<Vec<_>>(),
-    );
+    let (table_out, json_out) = (out("table"), out("json"));
+    let mixed = [
+        "run",
+        "--controller",
+        "fixed,mf",
+        "--combine",
+        "mix",
+        "--w-mb",
+        "0.25",
+        "--runs",
+        "3",
+        "--steps",
+        "200",
+        "--out",
+    ];
+    let table = stdout_of(&[&mixed[..], &[table_out.as_str()]].concat());
     let lines: Vec<&str> = table.lines().collect();
     assert!(lines[2].starts_with("fixed (mix) "), "{table}");
     assert!(lines[3].starts_with("mf "), "{table}");
@@ -319,12 +312,7 @@ fn a_mixed_rule_is_marked_and_its_weight_shown() {
         "{table}"
     );
 
-    let text = stdout_of(
-        &args("json", true)
-            .iter()
-            .map(String::as_str)
-            .collect::<Vec<_>>(),
-    );
+    let text = stdout_of(&[&mixed[..], &[json_out.as_str(), "--json"]].concat());
     let report: serde_json::Value = serde_json::from_str(&text).expect("one JSON object");
     let rows = report["controllers"].as_array().expect("rows");
     assert_eq!(rows[0]["controller"], "fixed");

@@ -9,8 +9,9 @@ use clap::Args;
 
 use super::{Failure, runtime, usage};
 use crate::bench::{
-    GROWTH_CONTROLLERS, GROWTH_RUNS, GROWTH_STEPS, GrowthPoint, Steady, growth, growth_sizes,
-    memory_per_instance, paired, pool, state_by_rule, steady_rate, whole_run, write_growth,
+    GROWTH_CONTROLLERS, GROWTH_RUNS, GROWTH_STEPS, GrowthPoint, WINDOW, growth, growth_sizes,
+    memory_per_instance, paired, pool, rule_at_steady_state, state_by_rule, steady_rate, whole_run,
+    write_growth,
 };
 use crate::env;
 use crate::params::{Combine, Controller, Params};
@@ -225,7 +226,7 @@ fn headline(
         (Controller::Rnd, 1024),
         (Controller::Ec, 1024),
     ] {
-        let rate = steady_rate(&spec, tidy1_params(controller), runs, &[1], 1000, 9)?[0];
+        let rate = steady_rate(&spec, tidy1_params(controller), runs, &[1], WINDOW, 9)?[0];
         say!(
             report,
             "  {:<10} {:>6} {:>16}",
@@ -266,16 +267,7 @@ fn headline(
         // Each rule's windows alternate with EC's, and its time against EC's is the median of
         // the pairs' ratios: a slow spell of a shared machine weighs on both alike.
         let one = pool(1)?;
-        let steady = |(controller, combine): (Controller, Combine)| {
-            let params = Params {
-                controller,
-                combine,
-                steps: env::registry::default_steps(task),
-                babbling: env::registry::default_babbling(task),
-                ..Params::default()
-            };
-            Steady::new(spec, params, runs, 1000)
-        };
+        let steady = |rule| rule_at_steady_state(spec, task, rule, runs);
         let ec = steady((Controller::Ec, Combine::Select))?;
         for &(controller, combine) in &rules {
             let timed = if (controller, combine) == (Controller::Ec, Combine::Select) {
@@ -315,7 +307,14 @@ fn headline(
         report,
         "ec on tidy1, steady state, {runs} runs, by thread count:"
     );
-    let rates = steady_rate(&spec, tidy1_params(Controller::Ec), runs, &threads, 1000, 9)?;
+    let rates = steady_rate(
+        &spec,
+        tidy1_params(Controller::Ec),
+        runs,
+        &threads,
+        WINDOW,
+        9,
+    )?;
     for (t, rate) in threads.iter().zip(&rates) {
         say!(
             report,
