@@ -296,11 +296,21 @@ impl<'a> PanelsFigure<'a> {
         if chart.panels.is_empty() {
             return Err(empty(figure, "panel list"));
         }
-        let panels = chart
+        let mut panels = chart
             .panels
             .iter()
             .map(|p| BarFigure::new(p, figure))
             .collect::<Result<Vec<_>, _>>()?;
+        // One y axis for every panel: bars of different groups are compared by height across
+        // panels, which axes of their own would mislead.
+        let lo = panels.iter().map(|p| p.y.lo).fold(f64::INFINITY, f64::min);
+        let hi = panels
+            .iter()
+            .map(|p| p.y.hi)
+            .fold(f64::NEG_INFINITY, f64::max);
+        for panel in &mut panels {
+            panel.y = Axis { lo, hi, log: false };
+        }
         let n = panels.len() as u32;
         let columns = n.min(3);
         Ok(Self {

@@ -239,7 +239,7 @@ pub struct BarChart {
 }
 
 /// Bar charts side by side, one panel per group (e.g. the two-step task's stay probabilities
-/// of each controller), each on its own axes.
+/// of each controller), all on one y axis so that heights compare across panels.
 #[derive(Debug, Clone, PartialEq)]
 pub struct BarPanels {
     /// Title above the panels (may be empty).

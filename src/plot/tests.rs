@@ -595,3 +595,38 @@ fn a_long_categorical_legend_is_cut_with_a_count_and_a_numeric_one_becomes_a_col
     ));
     fs::remove_dir_all(dir).unwrap();
 }
+
+#[test]
+fn bar_panels_share_one_y_axis_covering_the_tallest_bar() {
+    let panel = |scale: f64| {
+        BarChart {
+            title: format!("scale {scale}"),
+            ..bars()
+        }
+        .scaled(scale)
+    };
+    let chart = BarPanels {
+        title: "panels".to_string(),
+        panels: vec![panel(0.001), panel(1.0)],
+    };
+    let figure = bar::PanelsFigure::new(&chart, "panels").unwrap();
+    let (small, tall) = (&figure.panels[0].y, &figure.panels[1].y);
+    assert_eq!((small.lo, small.hi), (tall.lo, tall.hi));
+    assert_eq!(small.lo, 0.0);
+    // The tallest bar, 420 with a 10 % error bar, fits under the shared top.
+    assert!(tall.hi >= 462.0, "top {}", tall.hi);
+    // Each panel alone would have had its own top, a thousand times lower for the first.
+    let alone = bar::BarFigure::new(&chart.panels[0], "alone").unwrap();
+    assert!(alone.y.hi < 1.0, "top alone {}", alone.y.hi);
+}
+
+impl BarChart {
+    /// The chart with every value and error multiplied by `k`.
+    fn scaled(mut self, k: f64) -> Self {
+        for bar in &mut self.bars {
+            bar.value *= k;
+            bar.error = bar.error.map(|e| e * k);
+        }
+        self
+    }
+}
