@@ -72,6 +72,7 @@ fn learn(spec: &Spec) -> Learned {
             settled: &mut settled,
             cost_mf: &mut cost_mf,
             cost_mb: &mut cost_mb,
+            entropy_mix: &mut [],
             visited: &mut visited,
             bonus: &mut bonus,
             arbiter_run: &mut [],

@@ -6,10 +6,10 @@
 //! `cargo run --release --example rule_ratios -- tidy1,tidy2 fixed,vpi 9`
 //!
 //! Arguments: tasks (any `--task` of `mbmf run`), controllers (names as `--controller` takes
-//! them), the pairs of windows per rule (default 9) and the runs (default 1,024, as `mbmf
-//! bench`; 16 runs stay in cache from one window to the next, which leaves the arithmetic
-//! alone). Each line gives the median over the pairs of the rule's time over EC's, and the
-//! rule's median rate.
+//! them, `-mix` appended for `combine = mix`: `fixed-mix`), the pairs of windows per rule
+//! (default 9) and the runs (default 1,024, as `mbmf bench`; 16 runs stay in cache from one
+//! window to the next, which leaves the arithmetic alone). Each line gives the median over the
+//! pairs of the rule's time over EC's, and the rule's median rate.
 
 use std::process::ExitCode;
 use std::sync::Arc;
@@ -34,8 +34,19 @@ fn main() -> ExitCode {
     };
     let mut controllers = Vec::new();
     for name in rules.split(',') {
+        // `fixed-mix`: the rule under `combine = mix`, as `mbmf bench --json` names it.
+        let (name, combine) = match name.strip_suffix("-mix") {
+            Some(rule) => (rule, Combine::Mix),
+            None => (name, Combine::Select),
+        };
         match Controller::ALL.iter().find(|c| c.name() == name) {
-            Some(&c) => controllers.push(c),
+            Some(&c) if combine == Combine::Select || c.combines() => {
+                controllers.push((c, combine));
+            }
+            Some(_) => {
+                eprintln!("{name} does not combine: `{name}-mix` is no rule");
+                return ExitCode::from(2);
+            }
             None => {
                 let known: Vec<_> = Controller::ALL.iter().map(|c| c.name()).collect();
                 eprintln!("unknown controller {name:?}; known: {}", known.join(", "));
@@ -55,22 +66,21 @@ fn main() -> ExitCode {
 /// Prints each rule's time over EC's on each task.
 fn ratios(
     tasks: &str,
-    controllers: &[Controller],
+    controllers: &[(Controller, Combine)],
     pairs: usize,
     runs: usize,
 ) -> Result<(), String> {
     let one = pool(1).map_err(|e| e.to_string())?;
     for task in tasks.split(',') {
         let spec = Arc::new(mbmf::env::load(task).map_err(|e| e.to_string())?);
-        let steady = |controller| {
-            rule_at_steady_state(&spec, task, (controller, Combine::Select), runs)
-                .map_err(|e| e.to_string())
-        };
-        let ec = steady(Controller::Ec)?;
-        for &controller in controllers {
-            let timed = paired(&ec, &steady(controller)?, &one, pairs);
+        let steady =
+            |rule| rule_at_steady_state(&spec, task, rule, runs).map_err(|e| e.to_string());
+        let ec = steady((Controller::Ec, Combine::Select))?;
+        for &(controller, combine) in controllers {
+            let timed = paired(&ec, &steady((controller, combine))?, &one, pairs);
+            let mix = if combine == Combine::Mix { "-mix" } else { "" };
             println!(
-                "{task}, {runs} runs, {}: {:.3}x ec's time ({:.2} M steps/s)",
+                "{task}, {runs} runs, {}{mix}: {:.3}x ec's time ({:.2} M steps/s)",
                 controller.name(),
                 timed.time_over_base,
                 timed.rate / 1e6

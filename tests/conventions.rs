@@ -555,7 +555,19 @@ fn bench_json_is_one_object_with_every_rule_and_the_memory() {
         );
     }
     assert!(bytes("mf", "select") < bytes("ec", "select"));
-    assert_eq!(bytes("fixed", "mix"), bytes("fixed", "select"));
+    // Every rule fits with either combine; mixing a steady weight keeps one more f64 per state
+    // (its mixed distribution's entropy, tidy1's 112 states), and only EC weighs costs, in two
+    // more.
+    for controller in ["rnd", "ec", "entropy", "fixed", "reliability"] {
+        let held = bytes(controller, "mix");
+        assert!(
+            held <= 64 * 1024,
+            "{controller} mix: {held} bytes per tidy1 run"
+        );
+    }
+    assert_eq!(bytes("fixed", "mix"), bytes("fixed", "select") + 112 * 8);
+    assert_eq!(bytes("reliability", "mix"), bytes("reliability", "select"));
+    assert_eq!(bytes("ec", "select"), bytes("rnd", "select") + 2 * 112 * 8);
     let refused = mbmf()
         .args(["bench", "--json", "--growth"])
         .output()

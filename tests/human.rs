@@ -90,6 +90,8 @@ impl Solo {
             settled: &mut self.settled,
             cost_mf: &mut self.cost_mf,
             cost_mb: &mut self.cost_mb,
+            // Nor a mixed distribution's entropy.
+            entropy_mix: &mut [],
             visited: &mut self.visited,
             bonus: &mut self.bonus,
             arbiter_run: &mut [],

@@ -9,6 +9,7 @@ pub struct Fixed;
 
 impl Arbiter for Fixed {
     const COMBINES: bool = true;
+    const STEADY_WEIGHT: bool = true;
 
     #[inline(always)]
     fn weight(inputs: &mut Inputs<'_>) -> f64 {

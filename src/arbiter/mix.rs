@@ -17,6 +17,7 @@ impl<A: Arbiter> Arbiter for Mixed<A> {
     const DRAW: Draw = Draw::Mix;
     const LEARNS_MF: bool = A::LEARNS_MF;
     const WEIGHS_COST: bool = A::WEIGHS_COST;
+    const STEADY_WEIGHT: bool = A::STEADY_WEIGHT;
 
     fn run_scalars(params: &Params) -> usize {
         A::run_scalars(params)

@@ -187,6 +187,10 @@ pub trait Arbiter {
     const DRAW: Draw = Draw::Expert;
     /// Whether `combine = mix` applies: the rule gives a weight ([`weight`](Arbiter::weight)).
     const COMBINES: bool = false;
+    /// Whether the weight is the same at every decision of a run (a parameter or a constant):
+    /// then a mixed distribution depends only on the experts' rows, and its entropy may be kept
+    /// per state while they are unchanged (the only `log2`s of a `combine = mix` step).
+    const STEADY_WEIGHT: bool = false;
     /// Whether [`learn_mf`](Arbiter::learn_mf) replaces the MF expert's Q-learning.
     const LEARNS_MF: bool = false;
     /// Whether the rule reads the per-state inference cost averages ([`Inputs::cost_mf`],
@@ -290,6 +294,16 @@ macro_rules! arbiters {
             /// Whether `combine = mix` applies to the controller (it gives a weight).
             pub fn combines(self) -> bool {
                 match self { $(Controller::$variant => <$module::$ty as Arbiter>::COMBINES),* }
+            }
+
+            /// Whether the rule's weight is the same at every decision ([`Arbiter::STEADY_WEIGHT`]).
+            pub fn steady_weight(self) -> bool {
+                match self { $(Controller::$variant => <$module::$ty as Arbiter>::STEADY_WEIGHT),* }
+            }
+
+            /// Whether the rule reads the per-state cost averages ([`Arbiter::WEIGHS_COST`]).
+            pub fn weighs_cost(self) -> bool {
+                match self { $(Controller::$variant => <$module::$ty as Arbiter>::WEIGHS_COST),* }
             }
 
             /// Whether the MF expert runs (infers, computes its softmax, learns).

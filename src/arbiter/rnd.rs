@@ -7,6 +7,7 @@ pub struct Rnd;
 
 impl Arbiter for Rnd {
     const COMBINES: bool = true;
+    const STEADY_WEIGHT: bool = true;
 
     #[inline(always)]
     fn weight(_inputs: &mut Inputs<'_>) -> f64 {

@@ -39,7 +39,8 @@ impl Expert {
 /// [`Kept`]), whether that fold left the averaged distribution as it was, so that folding
 /// again would too, and whether that settled average is the softmax itself, bit for bit, so
 /// that a decision drawing from the softmax may copy the average instead of computing it (most
-/// settled averages are: a near-deterministic softmax is its own moving average's fixed point).
+/// settled averages are: a near-deterministic softmax is its own moving average's fixed point);
+/// and, for both experts, whether the entropy kept for a mixed distribution still holds.
 /// A new state knows nothing ([`Default`]).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 #[repr(transparent)]
@@ -76,12 +77,30 @@ pub struct Kept<'a> {
     pub state: u32,
 }
 
+/// The flag of a kept mixed distribution's entropy: neither expert's Q row in the state has
+/// changed since it was computed.
+const MIX: u8 = 64;
+
 impl Settled {
-    /// The expert's Q row in the state changed: its softmax and fold must be computed again.
+    /// The expert's Q row in the state changed: its softmax and fold must be computed again, and
+    /// so must a mixed distribution's entropy.
     #[inline(always)]
     pub fn q_changed(&mut self, expert: Expert) {
         let (softmax, average) = expert.bits();
-        self.0 &= !(softmax | average | expert.equal_bit());
+        self.0 &= !(softmax | average | expert.equal_bit() | MIX);
+    }
+
+    /// Whether the entropy kept for the state's mixed distribution still holds: with a steady
+    /// weight and no human that distribution depends only on the two Q rows, unchanged since.
+    #[inline(always)]
+    pub fn mix_kept(self) -> bool {
+        self.0 & MIX != 0
+    }
+
+    /// The state's mixed distribution's entropy was just computed and kept.
+    #[inline(always)]
+    pub fn keep_mix(&mut self) {
+        self.0 |= MIX;
     }
 
     /// Whether the expert's Q row is unchanged since its softmax was last folded.
@@ -299,5 +318,29 @@ mod tests {
         assert_eq!(st.settled, mb_both);
         st.settled.q_changed(Expert::Mb);
         assert_eq!(st.settled, Settled::default());
+    }
+
+    #[test]
+    fn a_kept_mixed_entropy_survives_folds_and_falls_with_either_expert_s_row() {
+        for expert in [Expert::Mf, Expert::Mb] {
+            let mut st = State {
+                p: [0.0; 3],
+                owner: u32::MAX,
+                avg: [0.5, 0.25, 0.25],
+                settled: Settled::default(),
+                entropy: 0.0,
+            };
+            assert!(!st.settled.mix_kept(), "a new state keeps nothing");
+            st.settled.keep_mix();
+            assert!(st.settled.mix_kept());
+            // Folding the MF softmax (its average changes, then settles) leaves the mix alone:
+            // it depends on the Q rows, not on the averages.
+            let q = [0.0, -1000.0, -1000.0];
+            assert!(st.fold(&q, true, false));
+            while st.fold(&q, true, false) {}
+            assert!(st.settled.mix_kept());
+            st.settled.q_changed(expert);
+            assert!(!st.settled.mix_kept(), "{expert:?}'s row changed");
+        }
     }
 }

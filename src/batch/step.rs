@@ -705,7 +705,19 @@ fn decide<A: Arbiter, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
                 p
             }
         };
-        choice.chosen_entropy = normalise_bits(entropy_bits(p), n_a);
+        // A steady weight mixes rows that, unchanged, give the entropy kept at the last decision.
+        let keeps_mix = A::DRAW == Draw::Mix && A::STEADY_WEIGHT && !HUMAN;
+        let bits = if keeps_mix && !run.entropy_mix.is_empty() {
+            let settled = &mut run.settled[s];
+            if !settled.mix_kept() {
+                run.entropy_mix[s] = entropy_bits(p);
+                settled.keep_mix();
+            }
+            run.entropy_mix[s]
+        } else {
+            entropy_bits(p)
+        };
+        choice.chosen_entropy = normalise_bits(bits, n_a);
         draw(p, uniform(run.rng))
     };
 

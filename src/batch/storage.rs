@@ -12,7 +12,7 @@ use super::trace::TraceRows;
 use super::{Checkpoint, Cursor, RunStats, Settled};
 use crate::env::Spec;
 use crate::expert::mb::Model;
-use crate::params::{Controller, Params};
+use crate::params::{Combine, Controller, Params};
 use crate::schedule::Plan;
 
 /// The lengths the rows of the per-run arrays are made of.
@@ -36,6 +36,13 @@ pub struct Sizes {
     pub kept_states: usize,
     /// Slots of the MF softmaxes kept between decisions ([`kept_slots`]).
     pub kept_mf_slots: usize,
+    /// States of the per-state cost averages: the task's when a run's rule weighs costs
+    /// ([`crate::arbiter::Arbiter::WEIGHS_COST`]), else 0.
+    pub cost_states: usize,
+    /// States of the kept entropies of mixed distributions: the task's when a run without a
+    /// human mixes the experts with a steady weight ([`crate::arbiter::Arbiter::STEADY_WEIGHT`]),
+    /// else 0.
+    pub mix_states: usize,
     /// The same for the MB expert.
     pub kept_mb_slots: usize,
     /// Observable outcomes of the MB model (0 when no run runs MB).
@@ -87,6 +94,13 @@ impl Sizes {
             avg_mf_states: states_if(any(|c| c.runs_mf() && c.averages())),
             avg_mb_states: states_if(any(|c| c.runs_mb() && c.averages())),
             kept_states: states_if(mf_alone),
+            cost_states: states_if(any(Controller::weighs_cost)),
+            mix_states: states_if(params.clone().any(|p| {
+                p.combine == Combine::Mix
+                    && p.controller.combines()
+                    && p.controller.steady_weight()
+                    && !p.human_may_act()
+            })),
             kept_mf_slots: kept_slots(
                 n_s,
                 mf_alone,
@@ -331,10 +345,13 @@ tables! {
         max_mf: f64 [z.kept_states] = crate::expert::max_of(&[p.q_init]);
         /// For a run without a human: what still holds in each state ([`Settled`]).
         settled: Settled [z.states] = Settled::default();
-        /// MF per-state inference cost average.
-        cost_mf: f64 [z.states] = 0.0;
+        /// MF per-state inference cost average (for a rule that weighs costs).
+        cost_mf: f64 [z.cost_states] = 0.0;
         /// MB per-state inference cost average.
-        cost_mb: f64 [z.states] = 0.0;
+        cost_mb: f64 [z.cost_states] = 0.0;
+        /// For a run without a human that mixes the experts with a steady weight: the entropy
+        /// in bits of each state's mixed distribution, valid while [`Settled::mix_kept`].
+        entropy_mix: f64 [z.mix_states] = f64::NAN;
         /// Per state: the robot has decided there before (first-decision rule, SPEC 4).
         visited: bool [z.states] = false;
         /// G(s, a) of Eq. 8, `[state, action]`.
