@@ -73,6 +73,7 @@ fn learn(spec: &Spec) -> Learned {
             cost_mf: &mut cost_mf,
             cost_mb: &mut cost_mb,
             entropy_mix: &mut [],
+            weight_mix: &mut [],
             visited: &mut visited,
             bonus: &mut bonus,
             arbiter_run: &mut [],

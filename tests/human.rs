@@ -92,6 +92,7 @@ impl Solo {
             cost_mb: &mut self.cost_mb,
             // Nor a mixed distribution's entropy.
             entropy_mix: &mut [],
+            weight_mix: &mut [],
             visited: &mut self.visited,
             bonus: &mut self.bonus,
             arbiter_run: &mut [],

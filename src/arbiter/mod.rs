@@ -188,8 +188,8 @@ pub trait Arbiter {
     /// Whether `combine = mix` applies: the rule gives a weight ([`weight`](Arbiter::weight)).
     const COMBINES: bool = false;
     /// Whether the weight is the same at every decision of a run (a parameter or a constant):
-    /// then a mixed distribution depends only on the experts' rows, and its entropy may be kept
-    /// per state while they are unchanged (the only `log2`s of a `combine = mix` step).
+    /// then a mixed distribution's entropy, kept per state (the only `log2`s of a `combine =
+    /// mix` step), holds while the experts' rows are unchanged, without keeping the weight too.
     const STEADY_WEIGHT: bool = false;
     /// Whether [`learn_mf`](Arbiter::learn_mf) replaces the MF expert's Q-learning.
     const LEARNS_MF: bool = false;

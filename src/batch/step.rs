@@ -705,12 +705,18 @@ fn decide<A: Arbiter, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
                 p
             }
         };
-        // A steady weight mixes rows that, unchanged, give the entropy kept at the last decision.
-        let keeps_mix = A::DRAW == Draw::Mix && A::STEADY_WEIGHT && !HUMAN;
+        // Unchanged rows mixed with an unchanged weight give the entropy kept at the last
+        // decision in the state (see `storage::mixes_keeping_entropies`).
+        let keeps_mix = A::DRAW == Draw::Mix && !A::WEIGHS_COST && !HUMAN;
         let bits = if keeps_mix && !run.entropy_mix.is_empty() {
             let settled = &mut run.settled[s];
-            if !settled.mix_kept() {
+            let w = choice.p_mb;
+            let same_weight = A::STEADY_WEIGHT || run.weight_mix[s].to_bits() == w.to_bits();
+            if !(settled.mix_kept() && same_weight) {
                 run.entropy_mix[s] = entropy_bits(p);
+                if !A::STEADY_WEIGHT {
+                    run.weight_mix[s] = w;
+                }
                 settled.keep_mix();
             }
             run.entropy_mix[s]

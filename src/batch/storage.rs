@@ -40,9 +40,12 @@ pub struct Sizes {
     /// ([`crate::arbiter::Arbiter::WEIGHS_COST`]), else 0.
     pub cost_states: usize,
     /// States of the kept entropies of mixed distributions: the task's when a run without a
-    /// human mixes the experts with a steady weight ([`crate::arbiter::Arbiter::STEADY_WEIGHT`]),
-    /// else 0.
+    /// human mixes the experts ([`mixes_keeping_entropies`]), else 0.
     pub mix_states: usize,
+    /// States of the weights those entropies were computed with: the task's when such a run's
+    /// weight may change from one decision to the next
+    /// ([`crate::arbiter::Arbiter::STEADY_WEIGHT`]), else 0.
+    pub mix_weight_states: usize,
     /// The same for the MB expert.
     pub kept_mb_slots: usize,
     /// Observable outcomes of the MB model (0 when no run runs MB).
@@ -95,12 +98,12 @@ impl Sizes {
             avg_mb_states: states_if(any(|c| c.runs_mb() && c.averages())),
             kept_states: states_if(mf_alone),
             cost_states: states_if(any(Controller::weighs_cost)),
-            mix_states: states_if(params.clone().any(|p| {
-                p.combine == Combine::Mix
-                    && p.controller.combines()
-                    && p.controller.steady_weight()
-                    && !p.human_may_act()
-            })),
+            mix_states: states_if(params.clone().any(mixes_keeping_entropies)),
+            mix_weight_states: states_if(
+                params
+                    .clone()
+                    .any(|p| mixes_keeping_entropies(p) && !p.controller.steady_weight()),
+            ),
             kept_mf_slots: kept_slots(
                 n_s,
                 mf_alone,
@@ -136,6 +139,18 @@ impl Sizes {
     fn mb_pairs(&self) -> usize {
         self.mb_states * self.actions
     }
+}
+
+/// Whether a run keeps its mixed distributions' entropies between decisions: it mixes the
+/// experts (`combine = mix`) without a human, so that a mixed distribution depends only on the
+/// two Q rows and the weight. Not a rule that weighs costs (`ec`): its two per-state cost
+/// tables already fill a tidy1 run's 64 KiB, so it computes the entropy at every decision.
+fn mixes_keeping_entropies(params: &Params) -> bool {
+    let rule = params.controller;
+    params.combine == Combine::Mix
+        && rule.combines()
+        && !rule.weighs_cost()
+        && !params.human_may_act()
 }
 
 /// Slots of a two-expert run's kept MF softmaxes, and of its MB ones: powers of two, so that a
@@ -349,9 +364,12 @@ tables! {
         cost_mf: f64 [z.cost_states] = 0.0;
         /// MB per-state inference cost average.
         cost_mb: f64 [z.cost_states] = 0.0;
-        /// For a run without a human that mixes the experts with a steady weight: the entropy
-        /// in bits of each state's mixed distribution, valid while [`Settled::mix_kept`].
+        /// For a run that keeps them ([`mixes_keeping_entropies`]): the entropy in bits of each
+        /// state's mixed distribution, valid while [`Settled::mix_kept`] and the weight is the
+        /// one it was computed with.
         entropy_mix: f64 [z.mix_states] = f64::NAN;
+        /// The weight each kept entropy was computed with (for a rule whose weight may change).
+        weight_mix: f64 [z.mix_weight_states] = f64::NAN;
         /// Per state: the robot has decided there before (first-decision rule, SPEC 4).
         visited: bool [z.states] = false;
         /// G(s, a) of Eq. 8, `[state, action]`.
