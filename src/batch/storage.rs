@@ -36,6 +36,8 @@ pub struct Sizes {
     pub kept_states: usize,
     /// Slots of the MF softmaxes kept between decisions ([`kept_slots`]).
     pub kept_mf_slots: usize,
+    /// The same for the MB expert.
+    pub kept_mb_slots: usize,
     /// States of the per-state cost averages: the task's when a run's rule weighs costs
     /// ([`crate::arbiter::Arbiter::WEIGHS_COST`]), else 0.
     pub cost_states: usize,
@@ -46,8 +48,6 @@ pub struct Sizes {
     /// weight may change from one decision to the next
     /// ([`crate::arbiter::Arbiter::STEADY_WEIGHT`]), else 0.
     pub mix_weight_states: usize,
-    /// The same for the MB expert.
-    pub kept_mb_slots: usize,
     /// Observable outcomes of the MB model (0 when no run runs MB).
     pub outcomes: usize,
     /// Ring slots per pair of the MB model: the largest window N of the runs.
@@ -97,13 +97,6 @@ impl Sizes {
             avg_mf_states: states_if(any(|c| c.runs_mf() && c.averages())),
             avg_mb_states: states_if(any(|c| c.runs_mb() && c.averages())),
             kept_states: states_if(mf_alone),
-            cost_states: states_if(any(Controller::weighs_cost)),
-            mix_states: states_if(params.clone().any(mixes_keeping_entropies)),
-            mix_weight_states: states_if(
-                params
-                    .clone()
-                    .any(|p| mixes_keeping_entropies(p) && !p.controller.steady_weight()),
-            ),
             kept_mf_slots: kept_slots(
                 n_s,
                 mf_alone,
@@ -115,6 +108,13 @@ impl Sizes {
                 mb_alone,
                 folds_unattended(&|c| c.runs_mb()),
                 KEPT_SLOTS.1,
+            ),
+            cost_states: states_if(any(Controller::weighs_cost)),
+            mix_states: states_if(params.clone().any(mixes_keeping_entropies)),
+            mix_weight_states: states_if(
+                params
+                    .clone()
+                    .any(|p| mixes_keeping_entropies(p) && !p.controller.steady_weight()),
             ),
             outcomes: if mb { outcomes } else { 0 },
             window_cap: max(&|p| p.window_n as usize).max(1),
