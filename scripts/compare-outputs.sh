@@ -57,7 +57,7 @@ navdel|--task json:$NAV/realisticNavWorld.json --controller ec,mb --runs 4 --ste
 rules|--controller fixed,reliability,vpi --runs 4 --steps 2000 --interaction congratulation --budget 50
 mix|--controller ec,fixed,reliability --combine mix --runs 4 --steps 2000 --change 1000:boxes=brg
 mixsteady|--controller fixed,rnd,ec --combine mix --runs 6 --steps 4000 --w-mb 0.3
-mixrel|--controller reliability,entropy --combine mix --runs 6 --steps 4000 --babbling 300
+mixrel|--controller reliability,entropy,ec --combine mix --runs 6 --steps 4000 --babbling 300
 mixtidy2|--task tidy2 --controller fixed,rnd,entropy --combine mix --runs 4 --steps 3000 --window-n 3
 mixtwostep|--task twostep --controller fixed,rnd,reliability,entropy --combine mix --runs 6 --steps 2000 --tau 0.2 --lambda-mf 1
 mixnav|--task json:$NAV/realisticNavWorld.json --controller fixed,reliability --combine mix --runs 4 --steps 2500

@@ -90,8 +90,8 @@ impl Settled {
         self.0 &= !(softmax | average | expert.equal_bit() | MIX);
     }
 
-    /// Whether the entropy kept for the state's mixed distribution still holds: with a steady
-    /// weight and no human that distribution depends only on the two Q rows, unchanged since.
+    /// Whether neither Q row of the state has changed since its mixed distribution's entropy was
+    /// kept: without a human, that entropy still holds if the weight is the same too.
     #[inline(always)]
     pub fn mix_kept(self) -> bool {
         self.0 & MIX != 0

@@ -706,9 +706,13 @@ fn decide<A: Arbiter, const HUMAN: bool, const NA: usize, const BABBLING: bool>(
             }
         };
         // Unchanged rows mixed with an unchanged weight give the entropy kept at the last
-        // decision in the state (see `storage::mixes_keeping_entropies`).
-        let keeps_mix = A::DRAW == Draw::Mix && !A::WEIGHS_COST && !HUMAN;
-        let bits = if keeps_mix && !run.entropy_mix.is_empty() {
+        // decision in the state, wherever the batch holds the tables for it (which runs do is
+        // decided with the batch's sizes: `storage::mixes_keeping_entropies`).
+        let keeps_mix = A::DRAW == Draw::Mix
+            && !HUMAN
+            && !run.entropy_mix.is_empty()
+            && (A::STEADY_WEIGHT || !run.weight_mix.is_empty());
+        let bits = if keeps_mix {
             let settled = &mut run.settled[s];
             let w = choice.p_mb;
             let same_weight = A::STEADY_WEIGHT || run.weight_mix[s].to_bits() == w.to_bits();
