@@ -63,6 +63,7 @@ mixtwostep|--task twostep --controller fixed,rnd,reliability,entropy --combine m
 mixnav|--task json:$NAV/realisticNavWorld.json --controller fixed,reliability --combine mix --runs 4 --steps 2500
 twostep|--task twostep --controller mf,mb,ec,fixed,reliability,vpi --runs 6 --steps 400
 vpi|--controller vpi --runs 8 --steps 6000 --babbling 500
+vpilong|--controller vpi --runs 48 --steps 20000 --tau 0.5
 vpiparams|--task tidy2 --controller vpi --runs 6 --steps 3000 --vpi-tau 0.5 --kalman-noise 0.2 --kalman-v0 4 --rbar-rate 0.1 --interaction congratulation --budget 40
 vpitwostep|--task twostep --controller vpi --runs 8 --steps 3000 --tau 0.2
 vpinav|--task json:$NAV/realisticNavWorld.json --controller vpi --runs 4 --steps 2500 --change 1601:goal=34
