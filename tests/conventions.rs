@@ -312,6 +312,36 @@ fn a_mixed_rule_is_marked_and_its_weight_shown() {
         "{table}"
     );
 
+    // Lee 2014's P(MB) on tidy1 falls to about 3e-4 (SPEC 12.3): shown with its digits, not
+    // as 0.000, which would read as a weight of 0.
+    let small_out = out("small");
+    let small = stdout_of(&[
+        "run",
+        "--controller",
+        "reliability",
+        "--combine",
+        "mix",
+        "--runs",
+        "2",
+        "--steps",
+        "300",
+        "--out",
+        small_out.as_str(),
+    ]);
+    let weight = small
+        .lines()
+        .find_map(|line| line.split("Mean P(MB): reliability ").nth(1))
+        .unwrap_or_else(|| panic!("{small}"));
+    let mean: f64 = weight
+        .split(" ± ")
+        .next()
+        .and_then(|m| m.parse().ok())
+        .unwrap_or_else(|| panic!("{small}"));
+    assert!(
+        weight.contains("e-") && mean > 0.0 && mean < 5e-4,
+        "{small}"
+    );
+
     let text = stdout_of(&[&mixed[..], &[json_out.as_str(), "--json"]].concat());
     let report: serde_json::Value = serde_json::from_str(&text).expect("one JSON object");
     let rows = report["controllers"].as_array().expect("rows");

@@ -313,6 +313,17 @@ fn json_rows(rows: &[run::Row]) -> Vec<serde_json::Value> {
 /// The table: mean ± standard deviation per controller ("-" where no run has a value). With
 /// `combine = mix` no expert is drawn, so a line under the table gives the weight P(MB) the
 /// share column cannot show.
+/// A share or weight in [0, 1] to three decimals, unless it is too small to show there but not
+/// 0 (Lee 2014's P(MB) on tidy1 is about 3e-4): then with three significant digits, so that a
+/// weight that is not 0 never reads as one.
+fn share_figure(x: f64) -> String {
+    if x != 0.0 && x.abs() < 5e-4 {
+        format!("{x:.2e}")
+    } else {
+        format!("{x:.3}")
+    }
+}
+
 fn table(rows: &[run::Row], task: &str, runs: usize, seconds: f64) -> String {
     use std::fmt::Write as _;
     let name = |row: &run::Row| {
@@ -340,7 +351,7 @@ fn table(rows: &[run::Row], task: &str, runs: usize, seconds: f64) -> String {
         let ((r, rs), (c, cs)) = (row.reward, row.cost);
         let share = match row.share {
             None => format!("{:>18}", "-"),
-            Some((m, ms)) => format!("{m:>8.3} ± {ms:.3}"),
+            Some((m, ms)) => format!("{:>8} ± {}", share_figure(m), share_figure(ms)),
         };
         let _ = writeln!(
             out,
@@ -358,7 +369,12 @@ fn table(rows: &[run::Row], task: &str, runs: usize, seconds: f64) -> String {
         .filter(|row| row.mixes)
         .filter_map(|row| {
             let (w, ws) = row.weight?;
-            Some(format!("{} {w:.3} ± {ws:.3}", row.controller.name()))
+            Some(format!(
+                "{} {} ± {}",
+                row.controller.name(),
+                share_figure(w),
+                share_figure(ws)
+            ))
         })
         .collect();
     if !weights.is_empty() {
@@ -370,4 +386,19 @@ fn table(rows: &[run::Row], task: &str, runs: usize, seconds: f64) -> String {
         );
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::share_figure;
+
+    #[test]
+    fn a_small_share_keeps_its_digits_and_zero_stays_zero() {
+        assert_eq!(share_figure(0.0), "0.000");
+        assert_eq!(share_figure(0.25), "0.250");
+        assert_eq!(share_figure(1.0), "1.000");
+        assert_eq!(share_figure(0.0005), "0.001");
+        assert_eq!(share_figure(0.000_296_4), "2.96e-4");
+        assert_eq!(share_figure(1.5e-9), "1.50e-9");
+    }
 }
