@@ -344,7 +344,7 @@ fn simulate_strides(
 const MIN_OVERLAPPED_BATCH: usize = 256;
 
 /// Runs per batch for a job of `runs` runs whose batches may hold `batch_size`: on more than
-/// one thread, at least four batches of at least [`MIN_OVERLAPPED_BATCH`] runs, so that even a
+/// one thread, at least four batches of at least `MIN_OVERLAPPED_BATCH` runs, so that even a
 /// job that fits in one batch writes its first batches while simulating the next ones (on one
 /// thread nothing overlaps: `batch_size`). Results do not depend on the batch size.
 pub fn overlapped(batch_size: usize, runs: u64) -> usize {

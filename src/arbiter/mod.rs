@@ -1,6 +1,6 @@
 //! Arbitration rules (SPEC 4 and 12): at each decision, which expert acts and the MB weight
 //! reported. Each rule is one type implementing [`Arbiter`], in its own file, registered in one
-//! line of the [`arbiters!`] list below; the list generates the [`Controller`] parameter (its
+//! line of the `arbiters!` list below; the list generates the [`Controller`] parameter (its
 //! variants, names, and the questions the rest of the program asks of it) and [`dispatch`],
 //! which hands a generic step the rule's type, so that every rule gets its own compiled step:
 //! no per-step branch on the rule, no dynamic dispatch, no allocation.

@@ -59,9 +59,10 @@ pub fn vpi(q: &[f64], var: &[f64], out: &mut [f64]) {
     }
 }
 
-/// Whether each action's VPI (as [`vpi`] computes it, bit for bit) reaches `threshold`: 1.0 or
-/// 0.0 in `flags`; returns how many do. A decision needs only these comparisons, so a VPI is
-/// computed no further than its comparison needs ([`reaches`]).
+/// Whether each action's VPI (as `vpi` computes it, bit for bit) reaches `threshold`: 1.0 or
+/// 0.0 in `flags`; returns how many do. A decision needs only these comparisons: most are
+/// settled from a table of bounds ([`settled_by_table`]), and the rest compute a VPI no further
+/// than their comparison needs ([`reaches`]).
 pub fn plan(q: &[f64], var: &[f64], threshold: f64, flags: &mut [f64]) -> usize {
     let n = q.len();
     if n < 2 {
@@ -105,8 +106,8 @@ pub fn plan(q: &[f64], var: &[f64], threshold: f64, flags: &mut [f64]) -> usize 
 /// without a square root, an `exp` or an `erfc`; the rest go to [`reaches`].
 const OCTAVE_BITS: u32 = 3;
 
-/// The buckets' octaves of p: from 2^-30 (below, G is G(0) to 15 digits) to 2^8 (x = 16, where
-/// G is about 1e-117; above, only the bucket's upper bound is used).
+/// The buckets' octaves of p: from 2^-30 (below, G is within 1e-4 of G(0), one bucket) to 2^8
+/// (x = 16, where G is about 1e-117; above, one bucket whose upper bound alone is used).
 const FIRST_OCTAVE: i64 = -30;
 const OCTAVES: usize = 38;
 
@@ -207,7 +208,7 @@ const SIXTH: f64 = 1.0 / 6.0;
 
 /// Whether the VPI of one action of variance `var`, `linear * c + sigma phi(z)` with z = linear
 /// / sigma for the best action (`best`, c = Phi(z)) and -linear / sigma for another (c = 1 -
-/// Phi(z)), as [`vpi`] computes it, bit for bit, reaches `threshold`, computing as little of it
+/// Phi(z)), as `vpi` computes it, bit for bit, reaches `threshold`, computing as little of it
 /// as the comparison needs.
 ///
 /// Both formulas are a non-positive term plus the tail sigma phi(z), equal to the tail times 1 -
@@ -215,7 +216,7 @@ const SIXTH: f64 = 1.0 / 6.0;
 /// phi(0) (1 - y/8)^8 (for y <= 8) and phi(0) / (1 + y + y^2/2 + y^3/6). Where these bounds
 /// settle the comparison with a margin far above the rounding of the computed value, neither the
 /// density's `exp` nor the normal CDF (an erfc, most of the rule's cost) is evaluated; elsewhere
-/// the VPI is computed as [`vpi`] does. (The computed VPI never exceeds the computed tail, its
+/// the VPI is computed as `vpi` does. (The computed VPI never exceeds the computed tail, its
 /// linear term being non-positive, so a VPI that reaches the threshold passes the tail's test.)
 ///
 /// The commonest answer, a VPI far below the threshold, is found first from z^2 = linear^2 /

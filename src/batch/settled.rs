@@ -36,7 +36,7 @@ impl Expert {
 
 /// Per state, for each expert: whether its Q row has not changed since its softmax was last
 /// folded into its averaged distribution (a run that keeps softmaxes may still hold it:
-/// [`Kept`]), whether that fold left the averaged distribution as it was, so that folding
+/// `Kept`), whether that fold left the averaged distribution as it was, so that folding
 /// again would too, and whether that settled average is the softmax itself, bit for bit, so
 /// that a decision drawing from the softmax may copy the average instead of computing it (most
 /// settled averages are: a near-deterministic softmax is its own moving average's fixed point);

@@ -1,4 +1,4 @@
-//! The batch's per-run arrays, declared once: the [`tables!`] list below generates their owned
+//! The batch's per-run arrays, declared once: the `tables!` list below generates their owned
 //! storage ([`Tables`]: allocation and `state_layout` rows), one run's views into them
 //! ([`RunView`]), each run's initial values, and the bytes one run needs ([`Sizes::bytes`],
 //! which the memory estimate of `pipeline` reads). Adding an array is adding a row.
@@ -34,7 +34,7 @@ pub struct Sizes {
     /// States of the table only runs of the MF expert alone keep (its row maxima between
     /// decisions).
     pub kept_states: usize,
-    /// Slots of the MF softmaxes kept between decisions ([`kept_slots`]).
+    /// Slots of the MF softmaxes kept between decisions (`kept_slots`).
     pub kept_mf_slots: usize,
     /// The same for the MB expert.
     pub kept_mb_slots: usize,
@@ -42,7 +42,7 @@ pub struct Sizes {
     /// ([`crate::arbiter::Arbiter::WEIGHS_COST`]), else 0.
     pub cost_states: usize,
     /// States of the kept entropies of mixed distributions: the task's when a run without a
-    /// human mixes the experts ([`mixes_keeping_entropies`]), else 0.
+    /// human mixes the experts (`mixes_keeping_entropies`), else 0.
     pub mix_states: usize,
     /// States of the weights those entropies were computed with: the task's when such a run's
     /// weight may change from one decision to the next
@@ -270,7 +270,7 @@ macro_rules! tables {
             }
         }
 
-        /// One run's mutable views into the batch, handed to [`step`](super::step).
+        /// One run's mutable views into the batch, handed to the step (`batch/step.rs`).
         pub struct RunView<'a> {
             $($(#[$doc])* pub $v: &'a mut [$vt],)*
             /// The MB expert's learned model.
@@ -347,7 +347,7 @@ tables! {
         /// The same for the MB averaged distribution.
         entropy_mb: f64 [z.avg_mb_states] = f64::NAN;
         /// For a run without a human: MF softmaxes kept between decisions, `[slot, action]`
-        /// ([`kept_slot`]; empty for runs that keep none).
+        /// (`kept_slot`; empty for runs that keep none).
         kept_p_mf: f64 [z.kept_mf_slots * z.actions] = 0.0;
         /// The state whose MF softmax each slot holds (`u32::MAX`: none).
         kept_owner_mf: u32 [z.kept_mf_slots] = u32::MAX;
@@ -364,7 +364,7 @@ tables! {
         cost_mf: f64 [z.cost_states] = 0.0;
         /// MB per-state inference cost average.
         cost_mb: f64 [z.cost_states] = 0.0;
-        /// For a run that keeps them ([`mixes_keeping_entropies`]): the entropy in bits of each
+        /// For a run that keeps them (`mixes_keeping_entropies`): the entropy in bits of each
         /// state's mixed distribution, valid while [`Settled::mix_kept`] and the weight is the
         /// one it was computed with.
         entropy_mix: f64 [z.mix_states] = f64::NAN;

@@ -32,7 +32,7 @@ pub struct Task {
     pub events: &'static [&'static str],
     /// Why an event is refused, where the task has more to say than that it is not accepted.
     pub refusals: &'static [(&'static str, &'static str)],
-    /// The task parameters (rows of the parameter registry declared by [`task_params!`]) that
+    /// The task parameters (rows of the parameter registry declared by `task_params!`) that
     /// this task reads; the others must keep their defaults.
     pub params: &'static [&'static str],
     /// The world a run starts in when its task parameters are not all defaults: `None` where

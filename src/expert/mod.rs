@@ -13,9 +13,9 @@ pub fn softmax_biased(q: &[f64], g: &[u8], bonus: f64, tau: f64, out: &mut [f64]
     softmax_graded(q, g, bonus, tau, out, f64::from);
 }
 
-/// G(s, a) of a real person's punishment: -1 when read by [`softmax_signed`] (the simulated
+/// G(s, a) of a real person's punishment: -1 when read signed by [`softmax_graded_by`] (the simulated
 /// humans' G is 0 or 1, kept unsigned because the unsigned conversion is the cheaper one in the
-/// hot loop; [`softmax_graded_by`] reads it signed).
+/// hot loop).
 pub const PUNISHED: u8 = (-1i8).cast_unsigned();
 
 /// [`softmax_biased`], with G read as signed (+1, 0, or -1 stored as [`PUNISHED`]) when

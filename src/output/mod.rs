@@ -3,7 +3,7 @@
 //!
 //! Files are written to a temporary name beside the target and renamed when complete, so a
 //! killed job never leaves a truncated file under the final name. Every file carries its
-//! [`provenance`] as key-value metadata and each column's description and unit as field
+//! [`provenance`](mod@provenance) as key-value metadata and each column's description and unit as field
 //! metadata ([`columns`]); pages are zstd-compressed.
 
 pub mod atomic;

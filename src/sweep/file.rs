@@ -663,8 +663,8 @@ impl Parser<'_> {
         }
     }
 
-    /// Records that `key` is set in `section`; a key may be set once across [fixed], [grid] and
-    /// [[zip]].
+    /// Records that `key` is set in `section`; a key may be set once across `[fixed]`, `[grid]`
+    /// and `[[zip]]`.
     fn claim(&mut self, key: Key, span: &Range<usize>, section: &str) -> Result<(), SweepError> {
         let line = self.src.line(span);
         if let Some(prev) = self
@@ -1409,7 +1409,7 @@ impl Sweep {
         (run / seeds, (run % seeds) as u32)
     }
 
-    /// The value of every key set explicitly in configuration `config` ([fixed], axes).
+    /// The value of every key set explicitly in configuration `config` (`[fixed]`, axes).
     fn explicit(&self, config: u64) -> [Option<&Value>; N_KEYS] {
         let mut set: [Option<&Value>; N_KEYS] = [None; N_KEYS];
         for (k, v) in &self.fixed {

@@ -3,7 +3,7 @@
 //! resumes, and splits into shards for job arrays. `sweeps/README.md` documents the file format.
 //!
 //! - [`builder`]: sweeps built in code, with their canonical text.
-//! - [`file`]: parsing and validation (messages name the file, line and key), expansion.
+//! - [`file`](mod@file): parsing and validation (messages name the file, line and key), expansion.
 //! - [`keys`]: the parameters a sweep may set and how they map to [`crate::params::Params`].
 //! - [`shard`]: `--shard I/N` and the Slurm / Kubernetes environment.
 //! - [`store`]: the dataset folder: atomic parts, lock, resume scan, compaction.
