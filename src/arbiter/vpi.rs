@@ -406,17 +406,22 @@ mod tests {
         check(&[0.2], &[1.0], &[0.0]);
     }
 
-    #[test]
-    fn the_plan_flags_exactly_the_actions_whose_vpi_reaches_the_threshold() {
-        // Inputs around every branch: certain values, small and large variances, ties, VPIs
-        // just below and above the threshold, negative and NaN thresholds.
-        let mut state = 0x2545_f491_4f6c_dd1du64;
-        let mut next = || {
+    /// Uniforms in [0, 1) from a xorshift generator seeded with `state`: inputs that are the same
+    /// at every run of the tests.
+    fn uniforms(mut state: u64) -> impl FnMut() -> f64 {
+        move || {
             state ^= state << 13;
             state ^= state >> 7;
             state ^= state << 17;
             (state >> 11) as f64 / (1u64 << 53) as f64
-        };
+        }
+    }
+
+    #[test]
+    fn the_plan_flags_exactly_the_actions_whose_vpi_reaches_the_threshold() {
+        // Inputs around every branch: certain values, small and large variances, ties, VPIs
+        // just below and above the threshold, negative and NaN thresholds.
+        let mut next = uniforms(0x2545_f491_4f6c_dd1d);
         for case in 0..50_000 {
             let n = 1 + case % 7;
             // Some rows' differences are so small that their squares underflow.
@@ -514,13 +519,7 @@ mod tests {
         // Thresholds at relative distances from the computed VPI that the table must leave
         // (1e-9 and closer) or may settle (1e-3 and farther), for x from 0 to 20 and
         // variances across and outside the table's range.
-        let mut state = 0x9e37_79b9_7f4a_7c15u64;
-        let mut next = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut next = uniforms(0x9e37_79b9_7f4a_7c15);
         for case in 0..20_000 {
             let var = 10f64.powf(next() * 240.0 - 120.0);
             let x = next() * 20.0;
