@@ -310,9 +310,6 @@ fn json_rows(rows: &[run::Row]) -> Vec<serde_json::Value> {
         .collect()
 }
 
-/// The table: mean ± standard deviation per controller ("-" where no run has a value). With
-/// `combine = mix` no expert is drawn, so a line under the table gives the weight P(MB) the
-/// share column cannot show.
 /// A share or weight in [0, 1] to three decimals, unless it is too small to show there but not
 /// 0 (Lee 2014's P(MB) on tidy1 is about 3e-4): then with three significant digits, so that a
 /// weight that is not 0 never reads as one.
@@ -324,6 +321,9 @@ fn share_figure(x: f64) -> String {
     }
 }
 
+/// The table: mean ± standard deviation per controller ("-" where no run has a value). With
+/// `combine = mix` no expert is drawn, so a line under the table gives the weight P(MB) the
+/// share column cannot show.
 fn table(rows: &[run::Row], task: &str, runs: usize, seconds: f64) -> String {
     use std::fmt::Write as _;
     let name = |row: &run::Row| {
