@@ -134,14 +134,23 @@ impl Arbiter for Reliability {
     fn choose(inputs: &mut Inputs<'_>) -> Choice {
         let p_mb = inputs.own.run[P_MB];
         // Argmax: MB iff P_MB > 1/2, a fair draw at exactly 1/2 (SPEC 12.1).
-        let use_mb = pick(inputs.params.selection, p_mb, p_mb.partial_cmp(&0.5), || {
-            inputs.uniform()
-        });
+        let use_mb = pick(
+            inputs.params.selection,
+            p_mb,
+            p_mb.partial_cmp(&0.5),
+            || inputs.uniform(),
+        );
         inputs.choice(use_mb, p_mb, None)
     }
 
     #[inline(always)]
-    fn observe(params: &Params, own: &mut Own<'_>, t: &Transition, q_mf: &[f64], model: &Model<'_>) {
+    fn observe(
+        params: &Params,
+        own: &mut Own<'_>,
+        t: &Transition,
+        q_mf: &[f64],
+        model: &Model<'_>,
+    ) {
         let run = &mut *own.run;
         let n_a = t.n_actions;
         let sa = t.s * n_a + t.a;
@@ -182,7 +191,10 @@ mod tests {
         // Ten zero-class SPEs: K + n = 13. mean/var = (K+n)(K+n+1)/(K+n-1-n_k):
         // zero 13*14/2 = 91, others 13*14/12 = 15.1666..: chi = 91 / (91 + 2 * 182/12).
         let chi = chi_mb([10.0, 0.0, 0.0]);
-        assert!((chi - 91.0 / (91.0 + 2.0 * 182.0 / 12.0)).abs() < 1e-14, "{chi}");
+        assert!(
+            (chi - 91.0 / (91.0 + 2.0 * 182.0 / 12.0)).abs() < 1e-14,
+            "{chi}"
+        );
         assert!((chi - 0.75).abs() < 1e-14);
         // Five and five: K + n = 13; zero and positive 182/7 = 26, negative 182/12:
         // chi = 26 / (52 + 15.1666..) = 0.38709677...
@@ -227,7 +239,14 @@ mod tests {
         let mut memory = Rates::FORGOTTEN;
         let (mut kept, mut fresh) = (0.7, 0.7);
         // Arguments that repeat, change and come back, as a run's reliabilities do.
-        let chis = [(1.0, 0.75), (1.0, 0.75), (0.9, 0.75), (0.9, 0.5), (1.0, 0.75), (1.0, 0.75)];
+        let chis = [
+            (1.0, 0.75),
+            (1.0, 0.75),
+            (0.9, 0.75),
+            (0.9, 0.5),
+            (1.0, 0.75),
+            (1.0, 0.75),
+        ];
         for (chi_f, chi_b) in chis {
             kept = Rates(&mut memory).next_p_mb(&params, kept, chi_f, chi_b);
             fresh = next_p_mb(&params, fresh, chi_f, chi_b);

@@ -101,9 +101,10 @@ pub fn plan(q: &[f64], var: &[f64], threshold: f64, flags: &mut [f64]) -> usize 
 /// Both VPI formulas are sigma g(x), x = |z|, with g(x) = phi(x) - x (1 - Phi(x)) the standard
 /// normal loss function; so for a threshold T > 0 the comparison VPI >= T is V G(p) >= T^2, V the
 /// variance, p = x^2 = linear^2 / V, G(p) = g(sqrt p)^2 decreasing. [`LOSS_BOUNDS`] bounds G on
-/// buckets of p cut by its float bits (eighths of an octave), so that one multiplication
-/// and comparison against each bound settle all but a few comparisons in a thousand (on tidy1)
-/// without a square root, an `exp` or an `erfc`; the rest go to [`reaches`].
+/// buckets of p cut by its float bits (eighths of an octave: `OCTAVE_BITS` bits of the
+/// mantissa), so that a division for p, then a multiplication and a comparison against each
+/// bound, settle all but a few comparisons in a thousand (on tidy1) without a square root, an
+/// `exp` or an `erfc`; the rest go to [`reaches`].
 const OCTAVE_BITS: u32 = 3;
 
 /// The buckets' octaves of p: from 2^-30 (below, G is within 1e-4 of G(0), one bucket) to 2^8
@@ -166,7 +167,12 @@ static LOSS_BOUNDS: LazyLock<[(f64, f64); BUCKETS]> = LazyLock::new(|| {
 /// [`BOUND_MARGIN`] relative and `LINEAR_MARGIN |linear|` absolute, so it reaches T when V G >=
 /// (T + slack)^2 and falls short when V G < (T - slack)^2, G bounded by the bucket of p.
 #[inline(always)]
-fn settled_by_table(bounds: &[(f64, f64); BUCKETS], linear: f64, var: f64, threshold: f64) -> Option<bool> {
+fn settled_by_table(
+    bounds: &[(f64, f64); BUCKETS],
+    linear: f64,
+    var: f64,
+    threshold: f64,
+) -> Option<bool> {
     if !TABLE_RANGE.contains(&var) {
         return None;
     }
@@ -247,7 +253,11 @@ fn reaches(linear: f64, var: f64, best: bool, threshold: f64) -> bool {
             return false;
         }
     }
-    let z = if best { linear / sigma } else { -linear / sigma };
+    let z = if best {
+        linear / sigma
+    } else {
+        -linear / sigma
+    };
     // The lower bounds assume linear = -|z| sigma up to rounding: not so where z underflowed.
     let bounded = if z == 0.0 {
         linear == 0.0
@@ -350,7 +360,13 @@ impl Arbiter for Vpi {
     }
 
     #[inline(always)]
-    fn observe(params: &Params, own: &mut Own<'_>, t: &Transition, _q_mf: &[f64], _model: &Model<'_>) {
+    fn observe(
+        params: &Params,
+        own: &mut Own<'_>,
+        t: &Transition,
+        _q_mf: &[f64],
+        _model: &Model<'_>,
+    ) {
         let rate = params.rbar_rate;
         own.run[RBAR] = (1.0 - rate) * own.run[RBAR] + rate * t.r;
     }
@@ -388,7 +404,11 @@ mod tests {
         check(
             &[1.0, 0.5, 0.0],
             &[1.0, 0.25, 0.04],
-            &[0.197_796_557_401_306_08, 0.041_657_735_293_843_146, 1.069_233_102_332_441_2e-8],
+            &[
+                0.197_796_557_401_306_08,
+                0.041_657_735_293_843_146,
+                1.069_233_102_332_441_2e-8,
+            ],
         );
     }
 
@@ -495,7 +515,11 @@ mod tests {
         let bounds = &*LOSS_BOUNDS;
         for (b, &(below, above)) in bounds.iter().enumerate() {
             let start = if b == 0 { 0.0 } else { bucket_start(b) };
-            let end = if b + 1 < BUCKETS { bucket_start(b + 1) } else { 1e4 };
+            let end = if b + 1 < BUCKETS {
+                bucket_start(b + 1)
+            } else {
+                1e4
+            };
             for i in 0..=16 {
                 let p = if i == 16 {
                     end.next_down()
@@ -508,7 +532,11 @@ mod tests {
                 assert!(above >= g * g * (1.0 + 5e-8), "bucket {b} at p = {p}");
             }
         }
-        assert_eq!(bounds[BUCKETS - 1].0, 0.0, "the last bucket settles no VPI as reaching");
+        assert_eq!(
+            bounds[BUCKETS - 1].0,
+            0.0,
+            "the last bucket settles no VPI as reaching"
+        );
         // At x = 2 (G falls as p^-5.4 there) an eighth of an octave of p spans a factor of 1.9.
         let (below, above) = bounds[bucket(4.0)];
         assert!((1.8..2.0).contains(&(above / below)), "{below} {above}");

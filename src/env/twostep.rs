@@ -190,7 +190,10 @@ pub fn build(common_prob: f64, drift_sd: f64) -> Spec {
     );
     let arrivals = (0..spec.outcome_state.len())
         .map(|o| {
-            let sa = spec.outcome_start.partition_point(|&start| start as usize <= o) - 1;
+            let sa = spec
+                .outcome_start
+                .partition_point(|&start| start as usize <= o)
+                - 1;
             let (s, a) = (sa / 2, sa % 2);
             if s == 0 {
                 Arrival::NOTHING
