@@ -56,17 +56,12 @@ fn softmax_graded(
         *o = (*o - max) / tau;
     }
     // Rows often repeat values (untried actions, no-op actions that converge alike): an argument
-    // equal to one of the last two exponentiated reuses its value. exp(0) = 1 exactly (IEEE 754,
-    // C Annex F).
-    let mut cache = Recent::new();
+    // equal to one of the last two exponentiated, or 0 (the maximum's: exp(0) = 1 exactly, IEEE
+    // 754, C Annex F), reuses its value.
+    let mut cache = Recent::pinned(0.0, 1.0);
     let mut sum = 0.0;
     for o in out.iter_mut() {
-        let x = *o;
-        let e = if x == 0.0 {
-            1.0
-        } else {
-            cache.get_or(x, f64::exp)
-        };
+        let e = cache.get_or(*o, f64::exp);
         *o = e;
         sum += e;
     }
@@ -89,7 +84,8 @@ pub fn entropy_bits(p: &[f64]) -> f64 {
     let mut h = 0.0;
     // Equal probabilities give equal terms: a probability equal to one of the last two whose
     // term was computed reuses it.
-    let mut cache = Recent::new();
+    // (No probability is 0 here: the pinned slot is never asked.)
+    let mut cache = Recent::pinned(0.0, 0.0);
     for &x in p {
         if x > 0.0 {
             h -= cache.get_or(x, |x| x * x.log2());
@@ -126,40 +122,56 @@ fn log2_count(n: usize) -> f64 {
     }
 }
 
-/// Results of a pure function for the last two distinct arguments (compared bit for bit), so a
-/// row with repeated values costs about one call per distinct value, with identical results.
-/// Two fixed slots rather than a searched table: rows are short and their repeats mostly
-/// neighbours or one shared value, and two compares are cheaper than a search loop.
+/// Results of a pure function for the last two distinct arguments (compared bit for bit), and
+/// for one pinned argument given with its result, so a row with repeated values costs about one
+/// call per distinct value, with identical results. Fixed slots rather than a searched table:
+/// rows are short and their repeats mostly neighbours or one shared value. The three compares
+/// settle on one branch (hit or miss) and the hit's value is selected without branching: rows
+/// mix repeats and fresh values unpredictably, and each branch there is a likely mispredict.
 struct Recent {
-    keys: [u64; 2],
-    values: [f64; 2],
+    /// The pinned argument's key, then the last two computed (most recent first); empty slots
+    /// hold the pinned key.
+    keys: [u64; 3],
+    values: [f64; 3],
 }
 
 impl Recent {
-    /// No argument seen. The empty slots hold the key of +0.0, which neither caller passes
-    /// (the softmax handles ±0 before asking, the entropy only positive probabilities).
+    /// No argument computed yet; `f(x) = fx` known.
     #[inline(always)]
-    fn new() -> Recent {
+    fn pinned(x: f64, fx: f64) -> Recent {
+        let key = x.to_bits();
         Recent {
-            keys: [0; 2],
-            values: [0.0; 2],
+            keys: [key; 3],
+            values: [fx; 3],
         }
     }
 
-    /// `f(x)`, from memory when `x` was one of the last two arguments computed.
+    /// `f(x)`, from memory when `x` is the pinned argument or one of the last two computed.
     #[inline(always)]
     fn get_or(&mut self, x: f64, f: impl Fn(f64) -> f64) -> f64 {
-        debug_assert!(x != 0.0);
         let key = x.to_bits();
-        if key == self.keys[0] {
-            return self.values[0];
-        }
-        if key == self.keys[1] {
-            return self.values[1];
+        let hits = [
+            key == self.keys[0],
+            key == self.keys[1],
+            key == self.keys[2],
+        ];
+        if hits[0] | hits[1] | hits[2] {
+            let recent = if hits[1] {
+                self.values[1]
+            } else {
+                self.values[2]
+            };
+            return if hits[1] | hits[2] {
+                recent
+            } else {
+                self.values[0]
+            };
         }
         let value = f(x);
-        self.keys = [key, self.keys[0]];
-        self.values = [value, self.values[0]];
+        self.keys[2] = self.keys[1];
+        self.values[2] = self.values[1];
+        self.keys[1] = key;
+        self.values[1] = value;
         value
     }
 }
@@ -251,6 +263,39 @@ mod tests {
         assert_eq!(normalised_entropy(&[1.0, 0.0, 0.0]), 0.0);
         // H(0.5, 0.25, 0.25) = 1.5 bits.
         assert!((entropy_bits(&[0.5, 0.25, 0.25]) - 1.5).abs() < 1e-12);
+    }
+
+    #[test]
+    fn recent_results_are_the_functions_and_spare_repeated_calls() {
+        use std::cell::Cell;
+        let calls = Cell::new(0);
+        let f = |x: f64| {
+            calls.set(calls.get() + 1);
+            x.exp()
+        };
+        let mut cache = Recent::pinned(0.0, 1.0);
+        // 0 is pinned; 2 and 3 are the last two when asked again; 1 has been pushed out by then.
+        let args = [0.0, 1.0, 2.0, 1.0, 3.0, 2.0, 0.0, 3.0, 1.0, 0.0, -0.0];
+        let computed = [0, 1, 2, 2, 3, 3, 3, 3, 4, 4, 5];
+        for (&x, &count) in args.iter().zip(&computed) {
+            assert_eq!(cache.get_or(x, f).to_bits(), x.exp().to_bits(), "f({x})");
+            assert_eq!(calls.get(), count, "calls after f({x})");
+        }
+    }
+
+    #[test]
+    fn softmax_and_entropy_of_rows_with_repeats_are_the_plain_formulas_bit_for_bit() {
+        let q = [0.3, 0.1, 0.3, 0.1, 0.2, 0.1, -0.4];
+        let mut out = [0.0; 7];
+        softmax_biased(&q, &[0; 7], 0.0, 0.07, &mut out);
+        let max = 0.3;
+        let e: Vec<f64> = q.iter().map(|&v| ((v - max) / 0.07).exp()).collect();
+        let sum = e.iter().fold(0.0, |s, &x| s + x);
+        for (got, want) in out.iter().zip(&e) {
+            assert_eq!(got.to_bits(), (want / sum).to_bits());
+        }
+        let plain = out.iter().fold(0.0, |h: f64, &x| h - x * x.log2()).max(0.0);
+        assert_eq!(entropy_bits(&out).to_bits(), plain.to_bits());
     }
 
     #[test]
