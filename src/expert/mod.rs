@@ -83,8 +83,7 @@ pub fn max_of(row: &[f64]) -> f64 {
 pub fn entropy_bits(p: &[f64]) -> f64 {
     let mut h = 0.0;
     // Equal probabilities give equal terms: a probability equal to one of the last two whose
-    // term was computed reuses it.
-    // (No probability is 0 here: the pinned slot is never asked.)
+    // term was computed reuses it. (Only positive ones are asked, so the pinned 0 never is.)
     let mut cache = Recent::pinned(0.0, 0.0);
     for &x in p {
         if x > 0.0 {
