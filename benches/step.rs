@@ -26,6 +26,11 @@ use mbmf::params::{Combine, Controller};
 
 use common::{CONTROLLERS, Phase};
 
+/// Large allocations on huge pages, as the `mbmf` binary has them: a batch's tables are then read
+/// through the TLB as they are in a user's run.
+#[global_allocator]
+static ALLOCATOR: mbmf::huge_pages::HugePageSystem = mbmf::huge_pages::HugePageSystem;
+
 /// Runs per batch in the per-environment matrix.
 const RUNS: usize = 64;
 

@@ -17,6 +17,11 @@ use std::sync::Arc;
 use mbmf::bench::{paired, pool, rule_at_steady_state};
 use mbmf::params::{Combine, Controller};
 
+/// Large allocations on huge pages, as `mbmf` (and so `mbmf bench`) has them: the tables' random
+/// reads then miss the TLB as they do there.
+#[global_allocator]
+static ALLOCATOR: mbmf::huge_pages::HugePageSystem = mbmf::huge_pages::HugePageSystem;
+
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let usage = "usage: rule_ratios TASK[,TASK...] CONTROLLER[,CONTROLLER...] [PAIRS [RUNS]]";
