@@ -377,7 +377,7 @@ fn mbmf_stay_prints_tests_and_draws_the_stay_figure() {
 /// `lambda_mf` > 0 with `vpi` is refused, naming both (SPEC 12.4), on the command line and in a
 /// sweep file.
 #[test]
-fn a_trace_with_vpi_is_refused_naming_both() {
+fn an_eligibility_trace_with_vpi_is_refused_naming_both() {
     let out = common::run(&["run", "--controller", "vpi", "--lambda-mf", "0.5"]);
     assert_eq!(out.status.code(), Some(2));
     let err = String::from_utf8_lossy(&out.stderr);
