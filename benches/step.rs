@@ -26,8 +26,9 @@ use mbmf::params::{Combine, Controller};
 
 use common::{CONTROLLERS, Phase};
 
-/// Large allocations on huge pages, as the `mbmf` binary has them: a batch's tables are then read
-/// through the TLB as they are in a user's run.
+/// Large tables on huge pages, as the `mbmf` binary allocates them (`src/huge_pages.rs`): the
+/// steps are timed with the TLB misses of a user's run (and of `mbmf bench`), not those of 4 KiB
+/// pages.
 #[global_allocator]
 static ALLOCATOR: mbmf::huge_pages::HugePageSystem = mbmf::huge_pages::HugePageSystem;
 

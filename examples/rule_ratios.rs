@@ -17,8 +17,9 @@ use std::sync::Arc;
 use mbmf::bench::{paired, pool, rule_at_steady_state};
 use mbmf::params::{Combine, Controller};
 
-/// Large allocations on huge pages, as `mbmf` (and so `mbmf bench`) has them: the tables' random
-/// reads then miss the TLB as they do there.
+/// Large tables on huge pages, as the `mbmf` binary allocates them (`src/huge_pages.rs`): the
+/// steps are timed with the TLB misses of a user's run (and of `mbmf bench`), not those of 4 KiB
+/// pages.
 #[global_allocator]
 static ALLOCATOR: mbmf::huge_pages::HugePageSystem = mbmf::huge_pages::HugePageSystem;
 
