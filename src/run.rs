@@ -31,6 +31,7 @@ use arrow::record_batch::RecordBatch;
 
 use crate::batch::{Batch, RunConfig};
 use crate::env::Spec;
+use crate::env::registry::{self, Metric};
 use crate::error::IoError;
 use crate::output::{self, OutputError};
 use crate::params::{Combine, ConfigError, Controller, Interaction, Params};
@@ -328,8 +329,8 @@ pub struct Open {
 
 /// One configuration's summary: (mean, sample sd) of total reward, total cost, MB share and
 /// mean P(MB) over its runs (the last two over the runs that made decisions; `None` if none
-/// did).
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// did), and of the task's headline metrics.
+#[derive(Debug, Clone, PartialEq)]
 pub struct Row {
     /// The controller of the runs (configurations of one controller are merged).
     pub controller: Controller,
@@ -346,6 +347,20 @@ pub struct Row {
     pub weight: Option<(f64, f64)>,
     /// The runs mixed the experts' values (`combine = mix`, for a rule that gives a weight).
     pub mixes: bool,
+    /// The task's headline metrics ([`crate::env::registry::Task::headline`]), in its order.
+    pub headline: Vec<Headline>,
+}
+
+/// A task metric summarised over one controller's runs: (mean, sample sd) over the runs where
+/// it is defined, `None` where it is defined for none (a column of nulls).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Headline {
+    /// How the summary heads it ("reward effect").
+    pub heading: &'static str,
+    /// Its column in the runs table ("stay_reward_effect").
+    pub column: &'static str,
+    /// Mean and sample sd over the runs where it is defined.
+    pub value: Option<(f64, f64)>,
 }
 
 /// What a finished run wrote.
@@ -400,7 +415,7 @@ impl Open {
             batch_size: pipeline::overlapped(run.batch_size, total),
             writer,
         };
-        let mut summary = Summary::new(&job.out);
+        let mut summary = Summary::new(&job.out, &job.task);
         let started = std::time::Instant::now();
         let progress = |n| {
             progress(n);
@@ -679,20 +694,33 @@ struct Spill {
 struct Summary {
     /// Where the spill files are created (unnamed: nothing is left behind, even after a kill).
     dir: PathBuf,
+    /// The task's headline metrics: (heading, metric).
+    headline: Vec<(&'static str, &'static Metric)>,
     spills: Vec<Spill>,
 }
 
 impl Summary {
-    fn new(dir: &Path) -> Summary {
+    fn new(dir: &Path, task: &str) -> Summary {
+        let headline = registry::find(task).map_or(&[][..], |t| t.headline);
         Summary {
             dir: dir.to_path_buf(),
+            headline: headline
+                .iter()
+                .filter_map(|&(heading, name)| Some((heading, registry::metric(name)?)))
+                .collect(),
             spills: Vec::new(),
         }
     }
 
+    /// Values per run in a spill file: total reward, total cost, MB share, mean P(MB), then
+    /// the headline metrics (NaN where null).
+    fn width(&self) -> usize {
+        4 + self.headline.len()
+    }
+
     fn add(&mut self, batch: &Batch) -> Result<(), RunError> {
         use std::io::Write as _;
-        for (config, stats) in batch.configs().iter().zip(batch.stats()) {
+        for (r, (config, stats)) in batch.configs().iter().zip(batch.stats()).enumerate() {
             let c = config.params.controller;
             let i = match self.spills.iter().position(|s| s.controller == c) {
                 Some(i) => i,
@@ -721,7 +749,14 @@ impl Summary {
             let weight = per_decision(stats.p_mb_sum);
             let spill = &mut self.spills[i];
             spill.runs += 1;
-            for x in [stats.total_reward, stats.cost_total(), share, weight] {
+            let metrics = self
+                .headline
+                .iter()
+                .map(|(_, m)| (m.value)(batch.tally(r)).unwrap_or(f64::NAN));
+            for x in [stats.total_reward, stats.cost_total(), share, weight]
+                .into_iter()
+                .chain(metrics)
+            {
                 spill
                     .file
                     .write_all(&x.to_le_bytes())
@@ -734,6 +769,8 @@ impl Summary {
     /// The rows, in order of first appearance.
     fn rows(self) -> Result<Vec<Row>, RunError> {
         let read_back = || io("cannot read back the summary's temporary file".to_string());
+        let width = self.width();
+        let headline = self.headline;
         self.spills
             .into_iter()
             .map(|spill| {
@@ -742,10 +779,21 @@ impl Summary {
                     .file
                     .into_inner()
                     .map_err(|e| RunError::Spill(e.into_error()))?;
-                let reward = passes(&file, 0).map_err(read_back())?;
-                let cost = passes(&file, 1).map_err(read_back())?;
-                let share = passes(&file, 2).map_err(read_back())?;
-                let weight = passes(&file, 3).map_err(read_back())?;
+                let column = |k| passes(&file, k, width).map_err(read_back());
+                let (reward, cost, share, weight) =
+                    (column(0)?, column(1)?, column(2)?, column(3)?);
+                let headline = headline
+                    .iter()
+                    .enumerate()
+                    .map(|(k, &(heading, metric))| {
+                        let value = column(4 + k)?;
+                        Ok(Headline {
+                            heading,
+                            column: metric.name,
+                            value: (!value.0.is_nan()).then_some(value),
+                        })
+                    })
+                    .collect::<Result<_, RunError>>()?;
                 Ok(Row {
                     controller,
                     runs,
@@ -755,24 +803,22 @@ impl Summary {
                     share: (!share.0.is_nan()).then_some(share),
                     weight: (!weight.0.is_nan()).then_some(weight),
                     mixes,
+                    headline,
                 })
             })
             .collect()
     }
 }
 
-/// Values per run in a spill file: total reward, total cost, MB share, mean P(MB).
-const SPILLED: usize = 4;
-
-/// Runs the arithmetic of [`mean_sd`] over column `k` of a spill file (NaN: no value), reading it
-/// once per pass.
-fn passes(file: &std::fs::File, k: usize) -> std::io::Result<(f64, f64)> {
+/// Runs the arithmetic of [`mean_sd`] over column `k` of a spill file of `width` values per run
+/// (NaN: no value), reading it once per pass.
+fn passes(file: &std::fs::File, k: usize, width: usize) -> std::io::Result<(f64, f64)> {
     use std::io::{Read as _, Seek as _};
     let values = |f: &mut dyn FnMut(f64)| -> std::io::Result<()> {
         let mut handle = file;
         handle.rewind()?;
         let mut reader = std::io::BufReader::new(handle);
-        let mut record = [0u8; 8 * SPILLED];
+        let mut record = vec![0u8; 8 * width];
         loop {
             match reader.read_exact(&mut record) {
                 Ok(()) => {}

@@ -392,7 +392,7 @@ fn rows_of(dir: &Path, file: &str) -> Vec<Row> {
 }
 
 #[test]
-fn a_trace_is_committed_with_its_runs_and_an_untraced_rerun_does_not_adopt_an_old_one() {
+fn a_trace_is_committed_with_its_runs_and_an_untraced_rerun_removes_the_old_one() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("out");
     traced_run(
@@ -419,8 +419,12 @@ fn a_trace_is_committed_with_its_runs_and_an_untraced_rerun_does_not_adopt_an_ol
             "--force",
         ],
     );
+    // It was part of the results --force replaced: removed, so that no reader opening
+    // trace.parquet by name joins the old run's steps to the new run's runs.
+    assert!(!out.join("trace.parquet").exists());
     let e = read_trace(&out).unwrap_err().to_string();
-    assert!(e.contains("not the trace of the run"), "{e}");
+    assert!(e.contains("trace"), "{e}");
+    assert_eq!(read_dataset(&out, "runs").unwrap().len(), 3);
     // Replaced by a traced run again: the new trace.
     traced_run(
         &out,

@@ -294,6 +294,93 @@ fn mbmf_run_writes_stay_columns_for_twostep_and_nulls_for_tidy1() {
     assert!(err.contains("mbmf run --task twostep"), "{err}");
 }
 
+/// `mbmf run` on the two-step task summarises each controller's reward effect and interaction
+/// under its table and in `--json`, as the mean and sd of the runs' columns; other tasks show
+/// neither.
+#[test]
+fn mbmf_run_summarises_the_two_step_signatures_per_controller() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("ts");
+    let args = |json: bool| {
+        let mut a = vec![
+            "run",
+            "--task",
+            "twostep",
+            "--controller",
+            "mf,mb",
+            "--runs",
+            "12",
+            "--steps",
+            "300",
+            "--lambda-mf",
+            "1",
+            "--tau",
+            "0.2",
+            "--quiet",
+            "--force",
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        if json {
+            a.push("--json");
+        }
+        a
+    };
+    let text = String::from_utf8(common::run_ok(&args(false)).stdout).unwrap();
+    assert!(text.contains("two-step signatures"), "{text}");
+    assert!(
+        text.contains("reward effect") && text.contains("interaction"),
+        "{text}"
+    );
+    let report: serde_json::Value =
+        serde_json::from_slice(&common::run_ok(&args(true)).stdout).unwrap();
+    let runs = common::file_rows(&out.join("runs.parquet"), &[]);
+    for (k, controller) in ["mf", "mb"].into_iter().enumerate() {
+        let entry = &report["controllers"][k];
+        assert_eq!(entry["controller"], controller);
+        for column in ["stay_reward_effect", "stay_interaction"] {
+            let values: Vec<f64> = runs
+                .iter()
+                .filter(|r| r["controller"] == controller && r[column] != "null")
+                .map(|r| r[column].parse().unwrap())
+                .collect();
+            assert!(values.len() >= 10, "{controller} {column}: {values:?}");
+            let (mean, sd) = mean_sd(&values);
+            let got = |key: &str| entry[format!("{column}_{key}")].as_f64().unwrap();
+            assert!((got("mean") - mean).abs() < 1e-12, "{controller} {column}");
+            assert!((got("sd") - sd).abs() < 1e-12, "{controller} {column}");
+            // The table prints the same mean to three decimals on the controller's line.
+            let line = text
+                .lines()
+                .rev()
+                .find(|l| l.starts_with(&format!("{controller} ")))
+                .unwrap();
+            assert!(line.contains(&format!("{mean:.3} ± {sd:.3}")), "{line}");
+        }
+    }
+
+    let tidy = dir.path().join("tidy");
+    let o = common::run_ok(&[
+        "run",
+        "--controller",
+        "mf",
+        "--runs",
+        "2",
+        "--steps",
+        "100",
+        "--json",
+        "--quiet",
+        "--out",
+        tidy.to_str().unwrap(),
+    ]);
+    let report: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert!(
+        report["controllers"][0]
+            .get("stay_reward_effect_mean")
+            .is_none()
+    );
+}
+
 /// `mbmf stay` on a small run: the table, the JSON (the same means as the runs' columns) and
 /// the figure.
 #[test]

@@ -10,7 +10,7 @@ use clap::Args;
 use super::args::{ParamArgs, batch_size, explain, load_task, runs_count, seed};
 use super::{Failure, progress, signal, usage};
 use crate::env::registry;
-use crate::params::{Controller, Params, Profile};
+use crate::params::{Controller, CostModel, Params, Profile};
 use crate::run;
 use crate::schedule::Schedule;
 use crate::sweep::file::{UserProfile, load_profiles};
@@ -194,6 +194,13 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
         eprintln!("note: {note}");
     }
     let total = checked.job().total();
+    // Measured seconds are no operation counts: the table's heading says which it sums.
+    let wallclock = checked
+        .job()
+        .configs
+        .iter()
+        .any(|p| p.cost_model == CostModel::Wallclock);
+    let cost_unit = if wallclock { "s" } else { "ops" };
     let agent_steps = checked.job().agent_steps();
     let batch_size = checked.batch_size();
     let stop = signal::install();
@@ -235,7 +242,13 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
     } else {
         out!(
             "{}",
-            table(&done.rows, &args.task, done.runs as usize, done.seconds)
+            table(
+                &done.rows,
+                &args.task,
+                done.runs as usize,
+                done.seconds,
+                cost_unit
+            )
         );
         match &done.trace {
             Some(trace) => outln!(
@@ -293,7 +306,7 @@ fn json_rows(rows: &[run::Row]) -> Vec<serde_json::Value> {
         .map(|row| {
             let (m, ms) = row.share.unwrap_or((f64::NAN, f64::NAN));
             let (w, ws) = row.weight.unwrap_or((f64::NAN, f64::NAN));
-            serde_json::json!({
+            let mut object = serde_json::json!({
                 "controller": row.controller.name(),
                 "combine": if row.mixes { "mix" } else { "select" },
                 "runs": row.runs,
@@ -305,7 +318,14 @@ fn json_rows(rows: &[run::Row]) -> Vec<serde_json::Value> {
                 "mb_share_sd": ms,
                 "p_mb_mean": w,
                 "p_mb_sd": ws,
-            })
+            });
+            // The task's headline metrics (twostep's stay effects), named by their columns.
+            for h in &row.headline {
+                let (mean, sd) = h.value.unwrap_or((f64::NAN, f64::NAN));
+                object[format!("{}_mean", h.column)] = mean.into();
+                object[format!("{}_sd", h.column)] = sd.into();
+            }
+            object
         })
         .collect()
 }
@@ -324,19 +344,11 @@ fn share_figure(x: f64) -> String {
 /// The table: mean ± standard deviation per controller ("-" where no run has a value). With
 /// `combine = mix` no expert is drawn, so a line under the table gives the weight P(MB) the
 /// share column cannot show.
-fn table(rows: &[run::Row], task: &str, runs: usize, seconds: f64) -> String {
+fn table(rows: &[run::Row], task: &str, runs: usize, seconds: f64, cost_unit: &str) -> String {
     use std::fmt::Write as _;
-    let name = |row: &run::Row| {
-        let name = row.controller.name();
-        if row.mixes {
-            format!("{name} (mix)")
-        } else {
-            name.to_string()
-        }
-    };
     let width = rows
         .iter()
-        .map(|r| name(r).len())
+        .map(|r| label(r).len())
         .max()
         .unwrap_or(0)
         .max(10);
@@ -345,7 +357,11 @@ fn table(rows: &[run::Row], task: &str, runs: usize, seconds: f64) -> String {
     let _ = writeln!(
         out,
         "{:<width$} {:>5} {:>22} {:>26} {:>18}",
-        "controller", "runs", "total reward", "total cost (ops)", "MB share"
+        "controller",
+        "runs",
+        "total reward",
+        format!("total cost ({cost_unit})"),
+        "MB share"
     );
     for row in rows {
         let ((r, rs), (c, cs)) = (row.reward, row.cost);
@@ -356,7 +372,7 @@ fn table(rows: &[run::Row], task: &str, runs: usize, seconds: f64) -> String {
         let _ = writeln!(
             out,
             "{:<width$} {:>5} {:>12.1} ± {:<7.1} {:>15.4e} ± {:<8.2e} {share}",
-            name(row),
+            label(row),
             row.runs,
             r,
             rs,
@@ -385,7 +401,58 @@ fn table(rows: &[run::Row], task: &str, runs: usize, seconds: f64) -> String {
             weights.join(", ")
         );
     }
+    // vpi values each action by one expert: its P(MB) is the share of actions MB valued, and
+    // its MB share the decisions in which MB inferred at all (SPEC 12.4); the two differ.
+    if let Some(row) = rows.iter().find(|r| r.controller == Controller::Vpi)
+        && let Some((w, ws)) = row.weight
+    {
+        let _ = writeln!(
+            out,
+            "vpi: MB share counts the decisions in which MB valued at least one action. Mean \
+             P(MB), the share of actions it valued: {} ± {}",
+            share_figure(w),
+            share_figure(ws)
+        );
+    }
+    headline(&mut out, rows, task, width);
     out
+}
+
+/// A row's controller as the tables name it: `(mix)` after a rule that mixed.
+fn label(row: &run::Row) -> String {
+    let name = row.controller.name();
+    if row.mixes {
+        format!("{name} (mix)")
+    } else {
+        name.to_string()
+    }
+}
+
+/// The task's headline metrics per controller (twostep's reward effect and interaction), as
+/// a second table under the first, with the task's line on where to go further.
+fn headline(out: &mut String, rows: &[run::Row], task: &str, width: usize) {
+    use std::fmt::Write as _;
+    let Some(first) = rows.first().filter(|r| !r.headline.is_empty()) else {
+        return;
+    };
+    let note = registry::find(task).map_or("", |t| t.headline_note);
+    let _ = writeln!(out, "{note}");
+    let _ = write!(out, "{:<width$}", "controller");
+    for h in &first.headline {
+        let _ = write!(out, " {:>22}", h.heading);
+    }
+    let _ = writeln!(out);
+    for row in rows {
+        let _ = write!(out, "{:<width$}", label(row));
+        for h in &row.headline {
+            let cell = match h.value {
+                None => "-".to_string(),
+                Some((m, sd)) => format!("{m:.3} ± {sd:.3}"),
+            };
+            let _ = write!(out, " {cell:>22}");
+        }
+        let _ = writeln!(out);
+    }
 }
 
 #[cfg(test)]

@@ -20,6 +20,8 @@ pub const CHAIN: Task = Task {
     params: &[],
     configure: unconfigured,
     metrics: &[],
+    headline: &[],
+    headline_note: "",
 };
 
 /// Compiles the chain.

@@ -41,6 +41,11 @@ pub struct Task {
     /// The metric columns the task reports besides the common ones (null for other tasks),
     /// computed from its run's tally ([`crate::env::Tally`]).
     pub metrics: &'static [Metric],
+    /// The metrics `mbmf run` summarises per controller under its table (heading, metric name),
+    /// and a line saying where to go further with them.
+    pub headline: &'static [(&'static str, &'static str)],
+    /// See [`Task::headline`].
+    pub headline_note: &'static str,
 }
 
 /// A metric column of a task (SPEC 13's stay probabilities): a runs-table column, null for the
@@ -83,6 +88,8 @@ pub const DEFAULTS: Task = Task {
     params: &[],
     configure: unconfigured,
     metrics: &[],
+    headline: &[],
+    headline_note: "",
 };
 
 /// [`Task::configure`] of a task whose parameters change nothing.

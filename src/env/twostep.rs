@@ -77,6 +77,13 @@ pub const TWOSTEP: Task = Task {
             value: |t| effects(t).map(|e| e.1),
         },
     ],
+    headline: &[
+        ("reward effect", "stay_reward_effect"),
+        ("interaction", "stay_interaction"),
+    ],
+    headline_note: "two-step signatures, mean ± sd over runs (SPEC 13: MF's is the reward \
+                    effect, MB's the interaction); `mbmf stay` on the output folder tests them \
+                    and draws the figure",
     ..DEFAULTS
 };
 

@@ -133,6 +133,12 @@ pub fn commit(tables: &[(&str, &Path, &Path)], runs: (&Path, &Path)) -> std::io:
         return Err(e);
     }
     sync(dir);
+    // An untraced run replacing a traced one: the earlier run's trace.parquet would sit beside
+    // the new pair, and a reader opening it by name (not through [`committed_trace`]) would
+    // join one run's steps to another's runs. It was part of the results being replaced.
+    if !tables.iter().any(|&(table, ..)| table == "trace") {
+        remove_foreign_trace(dir, runs_target);
+    }
     // Copies left by earlier interrupted commits are of no run now.
     if let Ok(entries) = std::fs::read_dir(dir) {
         for e in entries.flatten() {
@@ -145,6 +151,17 @@ pub fn commit(tables: &[(&str, &Path, &Path)], runs: (&Path, &Path)) -> std::io:
     }
     remove_dead_staging(dir);
     Ok(())
+}
+
+/// Removes `dir`'s `trace.parquet` when an `mbmf run` wrote it and `runs`, the runs file just
+/// committed, does not carry its id. A file of that name without an id is not ours: kept.
+fn remove_foreign_trace(dir: &Path, runs: &Path) {
+    let trace = dir.join("trace.parquet");
+    if let Some(id) = run_id(&trace)
+        && run_id(runs).as_deref() != Some(id.as_str())
+    {
+        let _ = std::fs::remove_file(&trace);
+    }
 }
 
 /// Removes the staging folders (`.mbmf-run-PID`) that killed runs left in `dir`: those whose
