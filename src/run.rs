@@ -591,10 +591,49 @@ fn warnings(job: &Job) -> Vec<String> {
             job.configs[0].human.budget
         ));
     }
+    // A rule's own parameter, or a mix, given to rules that ignore it: legal (sweeps cross
+    // them with every rule on purpose), but in one run surely meant for a rule not listed.
+    let mut listed: Vec<Controller> = Vec::new();
+    for &c in &controllers {
+        if !listed.contains(&c) {
+            listed.push(c);
+        }
+    }
+    for name in job.set.iter().copied() {
+        let owners: Vec<&str> = Controller::ALL
+            .iter()
+            .filter(|c| c.own_params().contains(&name))
+            .map(|c| c.name())
+            .collect();
+        if !owners.is_empty() && !listed.iter().any(|c| c.own_params().contains(&name)) {
+            warnings.push(format!(
+                "{} changes nothing here: only {} reads it, and --controller lists {}",
+                crate::params::cli_flag(name),
+                owners.join(", "),
+                names(&listed)
+            ));
+        }
+    }
+    if job.set.contains(&"combine") && job.configs.iter().any(|p| p.combine == Combine::Mix) {
+        let ignoring: Vec<Controller> = listed.iter().copied().filter(|c| !c.combines()).collect();
+        if !ignoring.is_empty() {
+            warnings.push(format!(
+                "--combine mix does not apply to {}, which run as they would with select \
+                 (their rows record combine = mix, as given)",
+                names(&ignoring)
+            ));
+        }
+    }
     if !job.spec.can_move() {
         warnings.push(format!("--{}", no_transition(&job.task)));
     }
     warnings
+}
+
+/// Controllers' names joined with commas.
+fn names(controllers: &[Controller]) -> String {
+    let names: Vec<&str> = controllers.iter().map(|c| c.name()).collect();
+    names.join(", ")
 }
 
 /// The warning for a task whose world has no transition (every action leaves every state as

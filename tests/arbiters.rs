@@ -119,3 +119,66 @@ fn out_of_range_arbiter_parameters_are_usage_errors() {
         assert_eq!(out.status.code(), Some(2), "{args:?}");
     }
 }
+
+/// A rule's own parameter given to rules that do not read it, and a mix given to rules it does
+/// not apply to, are legal (sweeps cross them on purpose) but warned about in one run, naming
+/// the flag and the rules; given to a rule that reads it, no warning.
+#[test]
+fn parameters_no_listed_rule_reads_are_warned_about() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("out");
+    let stderr = |args: &[&str]| {
+        let base = [
+            "run",
+            "--runs",
+            "1",
+            "--steps",
+            "20",
+            "--quiet",
+            "--force",
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        let o = run(&[&base[..], args].concat());
+        assert_eq!(o.status.code(), Some(0), "{args:?}");
+        String::from_utf8(o.stderr).unwrap()
+    };
+    let e = stderr(&["--controller", "ec,mb", "--w-mb", "0.3", "--rel-p0", "0.2"]);
+    assert!(
+        e.contains(
+            "--w-mb changes nothing here: only fixed reads it, and --controller lists ec, mb"
+        ),
+        "{e}"
+    );
+    assert!(
+        e.contains("--rel-p0") && e.contains("only reliability"),
+        "{e}"
+    );
+    let e = stderr(&["--controller", "vpi,fixed,mf", "--combine", "mix"]);
+    assert!(
+        e.contains("--combine mix does not apply to vpi, mf,"),
+        "{e}"
+    );
+    for quiet in [
+        &["--controller", "fixed,ec", "--w-mb", "0.3"][..],
+        &[
+            "--controller",
+            "vpi",
+            "--vpi-tau",
+            "0.2",
+            "--kalman-noise",
+            "0.1",
+        ],
+        &[
+            "--controller",
+            "reliability",
+            "--combine",
+            "mix",
+            "--rel-memory",
+            "5",
+        ],
+    ] {
+        let e = stderr(quiet);
+        assert!(!e.contains("warning"), "{quiet:?}: {e}");
+    }
+}

@@ -10,6 +10,7 @@ pub struct Fixed;
 impl Arbiter for Fixed {
     const COMBINES: bool = true;
     const STEADY_WEIGHT: bool = true;
+    const PARAMS: &'static [&'static str] = &["w_mb"];
 
     #[inline(always)]
     fn weight(inputs: &mut Inputs<'_>) -> f64 {

@@ -187,6 +187,9 @@ pub trait Arbiter {
     const DRAW: Draw = Draw::Expert;
     /// Whether `combine = mix` applies: the rule gives a weight ([`weight`](Arbiter::weight)).
     const COMBINES: bool = false;
+    /// The parameters (registry names) only this rule reads: a run of rules that read none of
+    /// those given warns that they change nothing.
+    const PARAMS: &'static [&'static str] = &[];
     /// Whether the weight is the same at every decision of a run (a parameter or a constant):
     /// then a mixed distribution's entropy, kept per state (the only `log2`s of a `combine =
     /// mix` step), holds while the experts' rows are unchanged, without keeping the weight too.
@@ -296,6 +299,11 @@ macro_rules! arbiters {
                 match self { $(Controller::$variant => <$module::$ty as Arbiter>::COMBINES),* }
             }
 
+            /// The parameters only this rule reads ([`Arbiter::PARAMS`]).
+            pub fn own_params(self) -> &'static [&'static str] {
+                match self { $(Controller::$variant => <$module::$ty as Arbiter>::PARAMS),* }
+            }
+
             /// Whether the rule's weight is the same at every decision ([`Arbiter::STEADY_WEIGHT`]).
             pub fn steady_weight(self) -> bool {
                 match self { $(Controller::$variant => <$module::$ty as Arbiter>::STEADY_WEIGHT),* }
@@ -384,4 +392,25 @@ pub fn start(controller: Controller, params: &Params, own: &mut Own<'_>) {
         }
     }
     dispatch(controller, Start(params, own));
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A rule's own parameters are parameters of the registry (a misspelt name would never
+    /// warn), and none is claimed by two rules.
+    #[test]
+    fn own_parameters_are_registry_parameters_of_one_rule_each() {
+        let mut seen = Vec::new();
+        for c in Controller::ALL {
+            for &name in c.own_params() {
+                assert!(crate::params::param(name).is_some(), "{}: {name}", c.name());
+                assert!(!seen.contains(&name), "{name} claimed twice");
+                seen.push(name);
+            }
+        }
+        assert_eq!(Controller::Fixed.own_params(), ["w_mb"]);
+        assert_eq!(seen.len(), 14);
+    }
 }

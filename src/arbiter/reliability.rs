@@ -115,6 +115,16 @@ pub fn spe_class(spe: f64, threshold: f64) -> usize {
 impl Arbiter for Reliability {
     const OBSERVES: bool = true;
     const COMBINES: bool = true;
+    const PARAMS: &'static [&'static str] = &[
+        "spe_threshold",
+        "rel_memory",
+        "rel_eta",
+        "rel_a_mf_mb",
+        "rel_b_mf_mb",
+        "rel_a_mb_mf",
+        "rel_b_mb_mf",
+        "rel_p0",
+    ];
 
     fn run_scalars(params: &Params) -> usize {
         RING + params.rel_memory as usize

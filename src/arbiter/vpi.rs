@@ -322,6 +322,13 @@ impl Arbiter for Vpi {
     const OBSERVES: bool = true;
     const DRAW: Draw = Draw::PerAction;
     const LEARNS_MF: bool = true;
+    const PARAMS: &'static [&'static str] = &[
+        "kalman_v0",
+        "kalman_eta",
+        "kalman_noise",
+        "rbar_rate",
+        "vpi_tau",
+    ];
 
     fn run_scalars(_params: &Params) -> usize {
         1
