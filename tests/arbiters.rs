@@ -118,6 +118,14 @@ fn out_of_range_arbiter_parameters_are_usage_errors() {
         let out = run(&[&["run", "--controller", "reliability"][..], &args[..]].concat());
         assert_eq!(out.status.code(), Some(2), "{args:?}");
     }
+    // A whole-number parameter names its own range, whichever rule the bad value breaks.
+    for bad in ["-1", "1.5", "0", "10001"] {
+        let out = run(&["run", "--controller", "reliability", "--rel-memory", bad]);
+        assert_eq!(out.status.code(), Some(2), "{bad}");
+        let e = String::from_utf8_lossy(&out.stderr);
+        assert!(e.contains("--rel-memory"), "{bad}: {e}");
+        assert!(e.contains("expected 1 to 10000 transitions"), "{bad}: {e}");
+    }
 }
 
 /// A rule's own parameter given to rules that do not read it, and a mix given to rules it does

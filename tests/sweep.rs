@@ -160,6 +160,22 @@ fn a_misspelt_key_names_file_line_and_the_closest_key() {
 }
 
 #[test]
+fn a_top_level_key_in_a_section_is_said_to_be_one() {
+    for (text, key, section) in [
+        ("[fixed]\nsteps = 10\ntrace = true\n", "trace", "[fixed]"),
+        ("[grid]\nmaster-seed = [1, 2]\n", "master_seed", "[grid]"),
+        ("[[zip]]\nseeds = [1, 2]\n", "seeds", "[[zip]]"),
+    ] {
+        let err = parse_err(text);
+        assert!(
+            err.contains(&format!("'{key}' is a top-level key, not a parameter")),
+            "{err}"
+        );
+        assert!(err.contains(&format!("above {section}")), "{err}");
+    }
+}
+
+#[test]
 fn an_unknown_value_lists_the_accepted_values() {
     let err = parse_err("[grid]\ncontroller = [\"mf\",\n  \"eec\"]\n");
     assert!(err.starts_with("bad.toml:3: "), "{err}");

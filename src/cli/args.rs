@@ -90,9 +90,16 @@ fn flag(param: &'static Param) -> Arg {
         Kind::Real => arg
             .allow_hyphen_values(true)
             .value_parser(|s: &str| number(s).map(Value::Real)),
-        Kind::Count => arg
-            .allow_negative_numbers(true)
-            .value_parser(|s: &str| count(s).map(Value::Count)),
+        Kind::Count => {
+            // What the parameter accepts, where it says (`1 to 10000 transitions`), rather than
+            // the whole range of the type.
+            let range = param.accepted.map_or_else(
+                || "a whole number from 0 to 4294967295".to_string(),
+                str::to_string,
+            );
+            arg.allow_negative_numbers(true)
+                .value_parser(move |s: &str| count(s, &range).map(Value::Count))
+        }
         Kind::Switch => arg.value_parser(
             PossibleValuesParser::new([
                 PossibleValue::new("on").help("Enabled"),
@@ -133,7 +140,16 @@ pub fn number(text: &str) -> Result<f64, String> {
 /// Parses a whole number in `min..=max`, saying which rule a bad value breaks (the maximum
 /// included, even the largest 64-bit one).
 pub fn whole(text: &str, min: u64, max: u64) -> Result<u64, String> {
-    let range = format!("a whole number from {min} to {max}");
+    whole_described(
+        text,
+        min,
+        max,
+        &format!("a whole number from {min} to {max}"),
+    )
+}
+
+/// [`whole`], saying that `range` is expected.
+fn whole_described(text: &str, min: u64, max: u64, range: &str) -> Result<u64, String> {
     match text.trim().parse::<i128>() {
         Ok(n) if n < i128::from(min) => Err(format!("{n} is too small: expected {range}")),
         Ok(n) if n > i128::from(max) => Err(format!("{n} is too large: expected {range}")),
@@ -145,9 +161,10 @@ pub fn whole(text: &str, min: u64, max: u64) -> Result<u64, String> {
     }
 }
 
-/// A count of steps, sweeps or interactions: 0 to 2^32 - 1.
-pub fn count(text: &str) -> Result<u32, String> {
-    whole(text, 0, u64::from(u32::MAX)).map(|n| n as u32)
+/// A count of steps, sweeps or interactions: 0 to 2^32 - 1, the parameter's own range
+/// (`range`, as its message says it) checked later with every other rule.
+pub fn count(text: &str, range: &str) -> Result<u32, String> {
+    whole_described(text, 0, u64::from(u32::MAX), range).map(|n| n as u32)
 }
 
 /// `--runs`: 1 to [`MAX_RUNS`].
@@ -281,10 +298,25 @@ mod tests {
 
     #[test]
     fn whole_number_flags_say_which_rule_a_bad_value_breaks() {
-        assert_eq!(count("12"), Ok(12));
-        assert!(count("-1").unwrap_err().contains("-1 is too small"));
-        assert!(count("4294967296").unwrap_err().contains("too large"));
-        assert!(count("2.5").unwrap_err().contains("not a whole number"));
+        let any = "a whole number from 0 to 4294967295";
+        assert_eq!(count("12", any), Ok(12));
+        assert!(count("-1", any).unwrap_err().contains("-1 is too small"));
+        assert!(count("4294967296", any).unwrap_err().contains("too large"));
+        assert!(
+            count("2.5", any)
+                .unwrap_err()
+                .contains("not a whole number")
+        );
+        // A parameter's own range is what the message names.
+        let memory = "1 to 10000 transitions";
+        assert_eq!(
+            count("-1", memory).unwrap_err(),
+            "-1 is too small: expected 1 to 10000 transitions"
+        );
+        assert_eq!(
+            count("1.5", memory).unwrap_err(),
+            "not a whole number: expected 1 to 10000 transitions"
+        );
         assert!(runs_count("0").unwrap_err().contains("from 1 to 1000000"));
         assert_eq!(seed("18446744073709551615"), Ok(u64::MAX));
         assert!(number("x").is_err());

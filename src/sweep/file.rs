@@ -288,6 +288,18 @@ impl Parser<'_> {
         section: &str,
     ) -> Result<Key, SweepError> {
         Key::lookup(name.get_ref()).ok_or_else(|| {
+            let given = keys::normalise(name.get_ref());
+            if ["seeds", "master_seed", "trace", "profile_file"].contains(&given.as_str()) {
+                // Values that apply to the whole sweep, not to a configuration.
+                return self.src.err(
+                    &name.span(),
+                    name.get_ref(),
+                    format!(
+                        "'{given}' is a top-level key, not a parameter: write it at the top of \
+                         the file, before any section (`{given} = ...` above {section})"
+                    ),
+                );
+            }
             let names: Vec<&str> = Key::all().map(Key::name).collect();
             self.src.err(
                 &name.span(),
@@ -732,14 +744,16 @@ impl Parser<'_> {
                 Value::Real(x)
             }
             (Kind::Count, DeValue::Integer(_) | DeValue::Float(_)) => {
-                let n = as_int(v.get_ref())
-                    .ok_or_else(|| bad(self, format!("expected {}", kind_name(kind))))?;
-                let n = u32::try_from(n).map_err(|_| {
-                    bad(
-                        self,
-                        format!("{n} is out of range: expected {}", kind_name(kind)),
-                    )
-                })?;
+                // What the parameter accepts, where it says, rather than the type's range.
+                let accepted = match key {
+                    Key::Param(i) => crate::params::PARAMS[i].accepted.map(str::to_string),
+                    _ => None,
+                }
+                .unwrap_or_else(|| kind_name(kind));
+                let n =
+                    as_int(v.get_ref()).ok_or_else(|| bad(self, format!("expected {accepted}")))?;
+                let n = u32::try_from(n)
+                    .map_err(|_| bad(self, format!("{n} is out of range: expected {accepted}")))?;
                 Value::Count(n)
             }
             (Kind::Switch, DeValue::Boolean(b)) => Value::Switch(*b),
