@@ -624,6 +624,15 @@ fn warnings(job: &Job) -> Vec<String> {
             ));
         }
     }
+    if job.schedule.changes.is_empty() && !job.spec.unapplied.is_empty() {
+        warnings.push(format!(
+            "--task {}: {} schedules changes during the run, which mbmf applies only from \
+             --change events (such as --change STEP:goal=STATE; the guide on changes during a run \
+             gives the authors' goal change in full): this run's world does not change",
+            job.task,
+            job.spec.unapplied.join("; ")
+        ));
+    }
     if !job.spec.can_move() {
         warnings.push(format!("--{}", no_transition(&job.task)));
     }

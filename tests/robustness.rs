@@ -528,3 +528,35 @@ fn zero_steps_or_zero_checkpoint_write_runs_but_no_series_rows() {
     assert_eq!(out.runs_f64("total_reward").len(), 2);
     assert_eq!(out.series.iter().map(|b| b.num_rows()).sum::<usize>(), 0);
 }
+
+/// The authors' `keyStates.txt` may schedule a goal change or deleted transitions; mbmf applies
+/// a run's own `--change` events only, so a run without any is warned, with the file and its
+/// lines, that its world will not change. With a schedule, no such warning.
+#[test]
+fn a_world_file_that_schedules_changes_is_named_in_a_warning_when_the_run_has_none() {
+    let world = World::corridor(4, "1");
+    let key_states = world.dir.path().join("keyStates.txt");
+    std::fs::write(&key_states, "init 0\ngoal 3 1\nnew_goal 50 2 1\n").expect("keyStates");
+    let stderr = |extra: &[&str]| {
+        let dir = TempDir::new().expect("a temporary folder");
+        let output = Command::new(env!("CARGO_BIN_EXE_mbmf"))
+            .args(["run", "--quiet", "--controller", "mf", "--runs", "1"])
+            .args(["--steps", "100", "--task", &world.task(), "--out"])
+            .arg(dir.path().join("out"))
+            .args(extra)
+            .output()
+            .expect("mbmf runs");
+        assert_eq!(output.status.code(), Some(0), "{extra:?}");
+        String::from_utf8_lossy(&output.stderr).into_owned()
+    };
+    let e = stderr(&[]);
+    assert!(
+        e.contains(&format!(
+            "{} (line 3: 'new_goal 50 2 1') schedules changes during the run",
+            key_states.display()
+        )),
+        "{e}"
+    );
+    assert!(e.contains("this run's world does not change"), "{e}");
+    assert!(!stderr(&["--change", "50:goal=2"]).contains("warning"));
+}

@@ -380,7 +380,21 @@ pub fn load(paths: &JsonPaths, name: &str) -> Result<Spec, EnvFileError> {
     let keys = read_key_states(&paths.key_states, n_states)?;
     let outcomes = read_model(&paths.model, n_states, n_actions)?;
     let state_names = (0..n_states).map(|s| format!("s{s}")).collect();
-    Ok(Spec::from_outcomes(
+    let unapplied = keys
+        .scheduled
+        .iter()
+        .map(|(line, text)| format!("line {line}: '{text}'"))
+        .collect::<Vec<_>>();
+    let unapplied = if unapplied.is_empty() {
+        Vec::new()
+    } else {
+        vec![format!(
+            "{} ({})",
+            paths.key_states.display(),
+            unapplied.join(", ")
+        )]
+    };
+    let spec = Spec::from_outcomes(
         name.to_string(),
         n_states,
         n_actions,
@@ -392,7 +406,8 @@ pub fn load(paths: &JsonPaths, name: &str) -> Result<Spec, EnvFileError> {
         },
         state_names,
         None,
-    ))
+    );
+    Ok(Spec { unapplied, ..spec })
 }
 
 /// What a `json:` model path should name.
@@ -550,6 +565,9 @@ struct KeyStates {
     initial: Vec<StateId>,
     goal: StateId,
     reward: f64,
+    /// The lines scheduling changes during a run (`new_goal`, `del_trans`), with their line
+    /// numbers: not applied (a run's changes are its `--change` events, SPEC 10).
+    scheduled: Vec<(usize, String)>,
 }
 
 /// Reads `keyStates.txt`, checking its states against the state space.
@@ -557,12 +575,16 @@ fn read_key_states(path: &Path, n_states: usize) -> Result<KeyStates, EnvFileErr
     let text = read_text(path, TEXT_EXPECTED)?;
     let mut initial: Option<(Vec<StateId>, usize)> = None;
     let mut goal: Option<(StateId, f64, usize)> = None;
+    let mut scheduled = Vec::new();
     for (line, words) in content_lines(&text) {
         let keyword = match words[0] {
             "init" => "init",
             "goal" => "goal",
-            // NOTE: SPEC 2.3 Decision: environment changes during a run are not modelled yet.
-            "new_goal" | "del_trans" => continue,
+            // SPEC 2.3: read, not applied; a run's changes are its own schedule (SPEC 10).
+            "new_goal" | "del_trans" => {
+                scheduled.push((line, words.join(" ")));
+                continue;
+            }
             word => {
                 return Err(EnvFileError::UnknownKeyword {
                     path: path.to_path_buf(),
@@ -658,6 +680,7 @@ fn read_key_states(path: &Path, n_states: usize) -> Result<KeyStates, EnvFileErr
         initial,
         goal,
         reward,
+        scheduled,
     })
 }
 
@@ -1335,7 +1358,7 @@ mod tests {
     }
 
     #[test]
-    fn comments_blank_lines_and_environment_change_lines_are_ignored() {
+    fn comments_blank_lines_and_environment_change_lines_are_ignored_and_the_changes_kept() {
         let key_states = "\u{feff}# start\r\n\r\ninit 1 0   # two starts\r\n  goal 2 -0.5\r\n\
                           new_goal 1601 34 1\r\ndel_trans 1601 20-21 6-7";
         let spaces = "# sizes\n\nstate 3 # three\n   \naction 2";
@@ -1349,6 +1372,16 @@ mod tests {
                 reward: -0.5
             })
         );
+        // Not applied, but named for the warning of a run without a schedule.
+        assert_eq!(
+            spec.unapplied,
+            [format!(
+                "{} (line 5: 'new_goal 1601 34 1', line 6: 'del_trans 1601 20-21 6-7')",
+                world.paths.key_states.display()
+            )]
+        );
+        let plain = super::tests::world(MODEL, "init 1\ngoal 2 1\n", spaces);
+        assert!(load(&plain.paths, "test").unwrap().unapplied.is_empty());
     }
 
     #[test]

@@ -244,6 +244,10 @@ pub struct Spec {
     pub dynamics: Option<Dynamics>,
     /// The task's tally of the experiment; `None` for a task without (no array, no call).
     pub tally: Option<Tally>,
+    /// The world's files that schedule changes during a run, with those lines (the authors'
+    /// `keyStates.txt` `new_goal` and `del_trans`), which a run applies only from its own
+    /// schedule (`--change`): `mbmf run` names them in a warning when it has none.
+    pub unapplied: Vec<String>,
 }
 
 impl Spec {
@@ -397,6 +401,7 @@ impl Spec {
             human,
             dynamics: None,
             tally: None,
+            unapplied: Vec::new(),
         }
     }
 }
