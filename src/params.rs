@@ -376,10 +376,10 @@ crate::env::registry::task_params!(registry::registry {
     flag normalise_entropy ["normalize_entropy"]: bool = true,
         "entropies divided by log2(actions) in the MC values", help " (authors' code)";
     flag steps: u32 = 10_000, "experiment steps after babbling" ("steps"),
-        help " (the task's default: 20000 for tidy2). 0 runs the babbling only: one row per run with zero reward \
+        help " (the task's default: 20000 for tidy2, 402 for twostep, 1000 for chain). 0 runs the babbling only: one row per run with zero reward \
               and cost, and no series rows";
     flag babbling: u32 = 1_000, "babbling steps before the experiment" ("steps"),
-        help ". Reward is withheld and the human absent";
+        help " (the task's default: 0 for twostep, 100 for chain). Reward is withheld and the human absent";
     flag checkpoint: u32 = 100, "series row every K experiment steps" ("steps"),
         help ". The last step has a row too; 0 writes no series rows";
     after_profile reward_source: RewardSource = RewardSource::Environment,

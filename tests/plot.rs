@@ -30,11 +30,11 @@ fn plot_draws_one_curve_per_group_with_the_change_marked_beside_the_data() {
     assert!(output.status.success(), "{output:?}");
     let stdout = String::from_utf8_lossy(&output.stdout);
     assert!(
-        stdout.contains("controller=mb: 2 runs, 4 steps"),
+        stdout.contains("controller=mb: 2 runs, 4 checkpoints (steps 100 to 400)"),
         "{stdout}"
     );
     assert!(
-        stdout.contains("controller=mf: 2 runs, 4 steps"),
+        stdout.contains("controller=mf: 2 runs, 4 checkpoints (steps 100 to 400)"),
         "{stdout}"
     );
     assert!(stdout.contains("changes marked at step 200"), "{stdout}");

@@ -79,7 +79,16 @@ fn over_time(args: &PlotArgs, by: &str, folder: &Path) -> Result<(), Failure> {
     .map_err(runtime)?;
     for c in &curves.curves {
         let runs = c.n.iter().max().copied().unwrap_or(0);
-        outln!("{by}={}: {runs} runs, {} steps", c.label, c.steps.len());
+        // The curve's points are the series' checkpoints, not every step.
+        let span = match (c.steps.first(), c.steps.last()) {
+            (Some(first), Some(last)) => format!(" (steps {first} to {last})"),
+            _ => String::new(),
+        };
+        outln!(
+            "{by}={}: {runs} runs, {} checkpoints{span}",
+            c.label,
+            c.steps.len()
+        );
     }
     if !curves.change_steps.is_empty() {
         let steps: Vec<String> = curves.change_steps.iter().map(u32::to_string).collect();

@@ -413,6 +413,28 @@ mod tests {
         assert!(find("grid").is_none());
     }
 
+    /// The help of `--steps` and `--babbling` names every task whose default differs from
+    /// the paper's, with that default (written by hand there: this keeps it true).
+    #[test]
+    fn the_steps_and_babbling_help_names_each_task_default_that_differs() {
+        let help = |key| crate::params::param(key).unwrap().help;
+        for t in crate::env::TASKS {
+            for (key, value, paper) in [
+                ("steps", t.default_steps, DEFAULTS.default_steps),
+                ("babbling", t.default_babbling, DEFAULTS.default_babbling),
+            ] {
+                let named = help(key).contains(&format!("{value} for {}", t.name));
+                assert_eq!(
+                    named,
+                    value != paper,
+                    "--{key} of {}: {}",
+                    t.name,
+                    help(key)
+                );
+            }
+        }
+    }
+
     #[test]
     fn the_task_list_and_defaults_come_from_the_entries() {
         assert!(names().starts_with("tidy1, tidy2, grid:N"), "{}", names());
