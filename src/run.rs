@@ -617,9 +617,14 @@ fn warnings(job: &Job) -> Vec<String> {
     if job.set.contains(&"combine") && job.configs.iter().any(|p| p.combine == Combine::Mix) {
         let ignoring: Vec<Controller> = listed.iter().copied().filter(|c| !c.combines()).collect();
         if !ignoring.is_empty() {
+            let (run, their) = if ignoring.len() == 1 {
+                ("runs as it would", "its rows record")
+            } else {
+                ("run as they would", "their rows record")
+            };
             warnings.push(format!(
-                "--combine mix does not apply to {}, which run as they would with select \
-                 (their rows record combine = mix, as given)",
+                "--combine mix does not apply to {}, which {run} with select ({their} \
+                 combine = mix, as given)",
                 names(&ignoring)
             ));
         }

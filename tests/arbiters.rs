@@ -164,7 +164,12 @@ fn parameters_no_listed_rule_reads_are_warned_about() {
     );
     let e = stderr(&["--controller", "vpi,fixed,mf", "--combine", "mix"]);
     assert!(
-        e.contains("--combine mix does not apply to vpi, mf,"),
+        e.contains("--combine mix does not apply to vpi, mf, which run as they would"),
+        "{e}"
+    );
+    let e = stderr(&["--controller", "vpi", "--combine", "mix"]);
+    assert!(
+        e.contains("to vpi, which runs as it would with select (its rows record"),
         "{e}"
     );
     for quiet in [
