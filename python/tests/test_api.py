@@ -104,6 +104,13 @@ def test_warnings_are_python_warnings() -> None:
         warnings.simplefilter("always")
         mbmf.run(controller=["ec", "ec"], runs=1, **SMALL)
     assert any("--controller lists ec twice" in str(w.message) for w in caught)
+    # A rule's own parameter given to rules that do not read it: the CLI's warning.
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        mbmf.run(controller="ec", runs=1, w_mb=0.3, **SMALL)
+    assert any(
+        "--w-mb changes nothing here: only fixed reads it" in str(w.message) for w in caught
+    )
 
 
 def test_out_keeps_the_files_and_read_reads_them(tmp_path) -> None:
