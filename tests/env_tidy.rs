@@ -539,7 +539,13 @@ fn loads_the_authors_navworld_with_its_repeated_outcome_merged() {
     let out = tempfile::tempdir().unwrap();
     let exported = env::json::export(&spec, out.path()).expect("export navworld");
     let back = env::json::load(&exported, "json:navworld").expect("exported navworld loads");
-    assert_eq!(back, spec);
+    // The export is the world; the changes its keyStates.txt schedules (and mbmf does not
+    // apply) are not part of it.
+    assert!(!spec.unapplied.is_empty());
+    assert!(back.unapplied.is_empty());
+    let mut world = spec.clone();
+    world.unapplied.clear();
+    assert_eq!(back, world);
 }
 
 #[test]
