@@ -159,6 +159,66 @@ fn a_misspelt_key_names_file_line_and_the_closest_key() {
     assert!(err.contains("known keys: task, controller"), "{err}");
 }
 
+/// Settings a configuration's controller ignores are warned about with the file's line when
+/// they make configurations repeat one another, or label select runs as mixed; a [[zip]] that
+/// gives each rule its own values, and the shipped sweeps, warn of nothing.
+#[test]
+fn settings_the_controllers_ignore_are_warned_about_with_their_line() {
+    let w = |text: &str| parse(text).warnings;
+    // w_mb crossed with ec: ec's three configurations are one, run three times.
+    let warnings = w("[grid]\ncontroller = [\"ec\", \"fixed\"]\nw_mb = [0.2, 0.4, 0.6]\n");
+    assert_eq!(warnings.len(), 1, "{warnings:?}");
+    assert!(
+        warnings[0]
+            .starts_with("test.toml:3: key 'w_mb' in [grid]: 2 configurations of ec repeat others"),
+        "{warnings:?}"
+    );
+    assert!(
+        warnings[0].contains("(only fixed reads w_mb)"),
+        "{warnings:?}"
+    );
+    // The same values paired by a zip: no repeat.
+    assert!(
+        w("[[zip]]\ncontroller = [\"ec\", \"fixed\", \"fixed\"]\nw_mb = [0.5, 0.4, 0.6]\n")
+            .is_empty()
+    );
+    // A mix given to vpi: mislabelled, and a repeat of its select configuration.
+    let warnings =
+        w("[grid]\ncontroller = [\"vpi\", \"fixed\"]\ncombine = [\"select\", \"mix\"]\n");
+    assert_eq!(warnings.len(), 2, "{warnings:?}");
+    assert!(
+        warnings[0].contains("combine = mix does not apply to vpi (1 configuration)"),
+        "{warnings:?}"
+    );
+    assert!(
+        warnings[1].contains("1 configuration of vpi repeats others"),
+        "{warnings:?}"
+    );
+    // Budgets without an interaction, and with one.
+    let warnings = w("[grid]\nbudget = [0, 10, 20]\n");
+    assert!(
+        warnings[0].contains("2 configurations of ec repeat"),
+        "{warnings:?}"
+    );
+    assert!(
+        warnings[0].contains("no interaction spends a budget"),
+        "{warnings:?}"
+    );
+    assert!(w("[fixed]\ninteraction = \"takeover\"\n[grid]\nbudget = [0, 10, 20]\n").is_empty());
+    for entry in std::fs::read_dir(common::repo().join("sweeps")).unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().is_some_and(|e| e == "toml") {
+            let sweep = Sweep::load(&path).unwrap();
+            assert!(
+                sweep.warnings.is_empty(),
+                "{}: {:?}",
+                path.display(),
+                sweep.warnings
+            );
+        }
+    }
+}
+
 #[test]
 fn a_top_level_key_in_a_section_is_said_to_be_one() {
     for (text, key, section) in [

@@ -17,7 +17,7 @@ use super::keys::{self, Key, Kind, N_KEYS, Value};
 use crate::env::registry;
 use crate::env::{self, Spec};
 use crate::params::ConfigError;
-use crate::params::{Params, Profile};
+use crate::params::{Combine, Controller, Interaction, Params, Profile};
 use crate::schedule::{Event, Schedule};
 use crate::sizing::{Shrink, Size};
 
@@ -36,6 +36,8 @@ pub const TOP_LEVEL: &[&str] = &[
 ];
 /// Keys of a range table.
 const RANGE_KEYS: &[&str] = &["from", "to", "steps", "by", "log"];
+/// Configurations [`Sweep::ignored_settings`] looks at, at most (the warnings need no more).
+const IGNORED_SCAN: u64 = 100_000;
 /// More values than this on one axis is surely a mistake (and would not fit in memory).
 const MAX_AXIS_VALUES: u64 = 1_000_000;
 /// Largest sweep file read: a sweep is a few lines of TOML, so anything larger is a wrong path.
@@ -1387,7 +1389,7 @@ impl Sweep {
                 .map(|n| n.to_string()),
         );
         profile_names.extend(profiles.iter().map(|u| u.name.clone()));
-        Ok(Sweep {
+        let mut sweep = Sweep {
             file: file.to_string(),
             dir: dir.to_path_buf(),
             text: text.to_string(),
@@ -1404,7 +1406,155 @@ impl Sweep {
             sources: p.sources,
             configurations,
             warnings: p.warnings,
-        })
+        };
+        let ignored = sweep.ignored_settings();
+        sweep.warnings.extend(ignored);
+        Ok(sweep)
+    }
+
+    /// Settings some configurations' controllers ignore, as warnings with `file:line`: a mix
+    /// for a rule it does not apply to (its runs are `select`'s, its rows say `mix`), and
+    /// configurations that differ only in settings their controller ignores (a rule's own
+    /// parameter, `combine`, a budget without an interaction), which repeat one another with
+    /// other seeds. Legal, since a grid may cross them on purpose, but analyses would take them
+    /// for conditions. Looks at the first [`IGNORED_SCAN`] configurations of a larger sweep.
+    fn ignored_settings(&self) -> Vec<String> {
+        let combine = Key::lookup("combine");
+        let budget = Key::lookup("budget");
+        let own: Vec<(Key, &str)> = Controller::ALL
+            .iter()
+            .flat_map(|c| c.own_params().iter())
+            .filter_map(|&name| Some((Key::lookup(name)?, name)))
+            .collect();
+        let mut mislabelled: (u64, Vec<Controller>) = (0, Vec::new());
+        // Per configuration's values but the ignored ones: how many, and what was ignored.
+        let mut groups: HashMap<String, (u64, Vec<Key>, Vec<Controller>)> = HashMap::new();
+        for config in 0..self.configurations.min(IGNORED_SCAN) {
+            let set = self.explicit(config);
+            let r = self.resolve(config);
+            let c = r.params.controller;
+            let mut ignored: Vec<Key> = Vec::new();
+            if let Some(k) = combine
+                && set[k.index()].is_some()
+                && !c.combines()
+            {
+                ignored.push(k);
+                if r.params.combine == Combine::Mix {
+                    mislabelled.0 += 1;
+                    if !mislabelled.1.contains(&c) {
+                        mislabelled.1.push(c);
+                    }
+                }
+            }
+            ignored.extend(
+                own.iter()
+                    .filter(|(k, name)| set[k.index()].is_some() && !c.own_params().contains(name))
+                    .map(|&(k, _)| k),
+            );
+            if let Some(k) = budget
+                && set[k.index()].is_some()
+                && r.params.human.interaction == Interaction::None
+                && r.schedule == 0
+            {
+                ignored.push(k);
+            }
+            if ignored.is_empty() {
+                continue;
+            }
+            let signature: Vec<String> = Key::all()
+                .filter(|k| !ignored.contains(k))
+                .filter_map(|k| Some(format!("{}={}", k.name(), set[k.index()]?)))
+                .collect();
+            let group = groups.entry(signature.join("\u{1f}")).or_default();
+            group.0 += 1;
+            for k in ignored {
+                if !group.1.contains(&k) {
+                    group.1.push(k);
+                }
+            }
+            if !group.2.contains(&c) {
+                group.2.push(c);
+            }
+        }
+        let scanned = if self.configurations > IGNORED_SCAN {
+            format!(" among the first {IGNORED_SCAN}")
+        } else {
+            String::new()
+        };
+        let names = |cs: &[Controller]| cs.iter().map(|c| c.name()).collect::<Vec<_>>().join(", ");
+        let configurations = |n: u64| match n {
+            1 => "1 configuration".to_string(),
+            n => format!("{n} configurations"),
+        };
+        let mut warnings = Vec::new();
+        if let Some(k) = combine
+            && mislabelled.0 > 0
+        {
+            warnings.push(format!(
+                "{}: combine = mix does not apply to {} ({}{scanned}): their runs are those of \
+                 select, but their rows say mix",
+                self.place(k),
+                names(&mislabelled.1),
+                configurations(mislabelled.0)
+            ));
+        }
+        let (mut repeats, mut keys, mut controllers) = (0u64, Vec::new(), Vec::new());
+        for (n, ks, cs) in groups.into_values().filter(|g| g.0 > 1) {
+            repeats += n - 1;
+            keys.extend(
+                ks.into_iter()
+                    .filter(|k| !keys.contains(k))
+                    .collect::<Vec<_>>(),
+            );
+            controllers.extend(
+                cs.into_iter()
+                    .filter(|c| !controllers.contains(c))
+                    .collect::<Vec<_>>(),
+            );
+        }
+        if repeats > 0 {
+            keys.sort_by_key(|k| k.index());
+            controllers.sort_by_key(|c| Controller::ALL.iter().position(|a| a == c));
+            let key_names: Vec<&str> = keys.iter().map(|k| k.name()).collect();
+            let why: Vec<String> = keys
+                .iter()
+                .map(|&k| {
+                    if Some(k) == combine {
+                        let ignoring: Vec<Controller> = controllers
+                            .iter()
+                            .copied()
+                            .filter(|c| !c.combines())
+                            .collect();
+                        format!("combine does not apply to {}", names(&ignoring))
+                    } else if Some(k) == budget {
+                        "no interaction spends a budget".to_string()
+                    } else {
+                        let readers: Vec<Controller> = Controller::ALL
+                            .iter()
+                            .copied()
+                            .filter(|c| c.own_params().contains(&k.name()))
+                            .collect();
+                        format!("only {} reads {}", names(&readers), k.name())
+                    }
+                })
+                .collect();
+            warnings.push(format!(
+                "{}: {}{scanned} of {} {} others with other seeds: they differ from them only in \
+                 {}, which changes nothing there ({}); a [[zip]] pairs each {}",
+                self.place(keys[0]),
+                configurations(repeats),
+                names(&controllers),
+                if repeats == 1 { "repeats" } else { "repeat" },
+                key_names.join(", "),
+                why.join("; "),
+                if keys.iter().all(|&k| Some(k) == budget) {
+                    "interaction with its budgets"
+                } else {
+                    "rule with its own values"
+                }
+            ));
+        }
+        warnings
     }
 
     /// Number of configurations (points of the grid).
