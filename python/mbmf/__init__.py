@@ -261,12 +261,32 @@ class _Bar:
             self.bar.close()
 
 
+def _filters(where: str | Sequence[str]) -> list[str]:
+    """``where`` as a list of filters: one string is one filter, not its characters."""
+    return [where] if isinstance(where, str) else list(where)
+
+
+def _shard(shard: tuple[int, int] | str) -> tuple[int, int]:
+    """``shard`` as (INDEX, COUNT): a pair, or ``"INDEX/COUNT"`` as ``--shard`` writes it."""
+    if isinstance(shard, str):
+        index, sep, count = shard.partition("/")
+        try:
+            if not sep:
+                raise ValueError
+            return (int(index), int(count))
+        except ValueError:
+            raise ValueError(
+                f"shard={shard!r}: expected INDEX/COUNT such as \"0/4\", or (INDEX, COUNT)"
+            ) from None
+    return tuple(shard)  # type: ignore[return-value]
+
+
 def sweep(
     sweep: str | os.PathLike[str] | dict[str, Any],
     *,
     out: str | os.PathLike[str],
     resume: bool = False,
-    shard: tuple[int, int] = (0, 1),
+    shard: tuple[int, int] | str = (0, 1),
     batch_size: int = 4096,
     threads: int | None = None,
     progress: bool | None = None,
@@ -287,7 +307,7 @@ def sweep(
             sweep if isinstance(sweep, dict) else os.fspath(sweep),
             os.fspath(out),
             resume,
-            tuple(shard),
+            _shard(shard),
             batch_size,
             threads,
             None if progress is False else bar,
@@ -303,7 +323,7 @@ def read(
     path: str | os.PathLike[str],
     table: str = "runs",
     *,
-    where: Sequence[str] = (),
+    where: str | Sequence[str] = (),
     allow_incomplete: bool = False,
     output: str = "arrow",
 ) -> Any:
@@ -317,7 +337,7 @@ def read(
     >>> runs = mbmf.read("out/run", output="polars")
     """
     _check_output(output)
-    t, warnings = _mbmf.read(os.fspath(path), table, list(where), allow_incomplete)
+    t, warnings = _mbmf.read(os.fspath(path), table, _filters(where), allow_incomplete)
     for warning in warnings:
         _warnings.warn(warning, stacklevel=2)
     return _convert(t, output)
@@ -328,7 +348,7 @@ def min_budget(
     metric: str = "total_reward",
     alpha: float | None = None,
     *,
-    where: Sequence[str] = (),
+    where: str | Sequence[str] = (),
     allow_incomplete: bool = False,
     output: str = "arrow",
 ) -> Any:
@@ -339,7 +359,7 @@ def min_budget(
     >>> mbmf.min_budget("out/budgets", metric="reward_last10", output="polars")
     """
     _check_output(output)
-    t, warnings = _mbmf.min_budget(os.fspath(path), metric, alpha, list(where), allow_incomplete)
+    t, warnings = _mbmf.min_budget(os.fspath(path), metric, alpha, _filters(where), allow_incomplete)
     for warning in warnings:
         _warnings.warn(warning, stacklevel=2)
     return _convert(t, output)
@@ -367,7 +387,7 @@ def pareto(
     objectives: Sequence[str] | str | None = None,
     *,
     by: Sequence[str] | str = (),
-    where: Sequence[str] = (),
+    where: str | Sequence[str] = (),
     allow_incomplete: bool = False,
     output: str = "arrow",
 ) -> Any:
@@ -393,7 +413,7 @@ def pareto(
         _data(data),
         None if objectives is None else [o.strip() for o in objectives],
         [b.strip() for b in by],
-        list(where),
+        _filters(where),
         allow_incomplete,
     )
     for warning in warnings:
@@ -417,7 +437,7 @@ def stats(
     by: str,
     metric: str = "total_reward",
     *,
-    where: Sequence[str] = (),
+    where: str | Sequence[str] = (),
     allow_incomplete: bool = False,
     output: str = "arrow",
 ) -> Stats:
@@ -431,7 +451,7 @@ def stats(
     """
     _check_output(output)
     groups, pairs, mixed, empty, warnings = _mbmf.stats(
-        _data(data), by, metric, list(where), allow_incomplete
+        _data(data), by, metric, _filters(where), allow_incomplete
     )
     for warning in warnings:
         _warnings.warn(warning, stacklevel=2)

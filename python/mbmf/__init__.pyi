@@ -91,7 +91,7 @@ def sweep(
     *,
     out: str | os.PathLike[str],
     resume: bool = False,
-    shard: tuple[int, int] = (0, 1),
+    shard: tuple[int, int] | str = (0, 1),
     batch_size: int = 4096,
     threads: int | None = None,
     progress: bool | None = None,
@@ -100,7 +100,7 @@ def read(
     path: str | os.PathLike[str],
     table: str = "runs",
     *,
-    where: Sequence[str] = (),
+    where: str | Sequence[str] = (),
     allow_incomplete: bool = False,
     output: str = "arrow",
 ) -> Any: ...
@@ -109,7 +109,7 @@ def min_budget(
     metric: str = "total_reward",
     alpha: float | None = None,
     *,
-    where: Sequence[str] = (),
+    where: str | Sequence[str] = (),
     allow_incomplete: bool = False,
     output: str = "arrow",
 ) -> Any: ...
@@ -119,7 +119,7 @@ def pareto(
     objectives: Sequence[str] | str | None = None,
     *,
     by: Sequence[str] | str = (),
-    where: Sequence[str] = (),
+    where: str | Sequence[str] = (),
     allow_incomplete: bool = False,
     output: str = "arrow",
 ) -> Any: ...
@@ -135,7 +135,7 @@ def stats(
     by: str,
     metric: str = "total_reward",
     *,
-    where: Sequence[str] = (),
+    where: str | Sequence[str] = (),
     allow_incomplete: bool = False,
     output: str = "arrow",
 ) -> Stats: ...

@@ -926,8 +926,12 @@ fn sweep(
         (path.display().to_string(), Sweep::load(&path))
     };
     let loaded = loaded.map_err(py_error)?;
-    let shard = Shard::new(shard.0, shard.1, "shard=(INDEX, COUNT)")
-        .map_err(|e| invalid("shard", format!("{shard:?}"), e))?;
+    let shard = Shard::new(
+        shard.0,
+        shard.1,
+        "shards are numbered from 0, so shard=(INDEX, COUNT) needs INDEX < COUNT",
+    )
+    .map_err(|e| refuse("shard", format!("{shard:?}"), e))?;
     let size = loaded.size(shard);
     let credit = if resume {
         mbmf::sizing::bytes_under(&out)

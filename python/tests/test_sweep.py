@@ -44,8 +44,12 @@ def test_shards_and_resume(tmp_path) -> None:
         mbmf.sweep(SWEEP, out=out, shard=(0, 2), progress=False)
     again = mbmf.sweep(SWEEP, out=out, shard=(0, 2), resume=True, progress=False)
     assert again.ran == 0
-    mbmf.sweep(SWEEP, out=out, shard=(1, 2), progress=False)
+    mbmf.sweep(SWEEP, out=out, shard="1/2", progress=False)
     assert pl.DataFrame(mbmf.read(out)).height == 8
+    # One filter as a string is one filter, as a list of one is.
+    one = pl.DataFrame(mbmf.read(out, where="controller=ec"))
+    assert one.height == 4 and one["controller"].unique().to_list() == ["ec"]
+    assert one.equals(pl.DataFrame(mbmf.read(out, where=["controller=ec"])))
 
 
 def test_bad_sweeps_raise_value_error(tmp_path) -> None:
@@ -53,6 +57,10 @@ def test_bad_sweeps_raise_value_error(tmp_path) -> None:
         mbmf.sweep({"grid": {"alpha_mf": [2.0]}}, out=tmp_path / "bad", progress=False)
     with pytest.raises(ValueError, match="shard"):
         mbmf.sweep(SWEEP, out=tmp_path / "s", shard=(2, 2), progress=False)
+    with pytest.raises(ValueError, match="numbered from 0, so shard=\\(INDEX, COUNT\\) needs INDEX < COUNT"):
+        mbmf.sweep(SWEEP, out=tmp_path / "s", shard="2/2", progress=False)
+    with pytest.raises(ValueError, match="expected INDEX/COUNT such as"):
+        mbmf.sweep(SWEEP, out=tmp_path / "s", shard="half", progress=False)
 
 
 def test_min_budget_equals_the_command_line(tmp_path, mbmf_bin) -> None:
