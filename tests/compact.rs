@@ -117,8 +117,22 @@ fn compact_refuses_an_incomplete_a_locked_and_a_foreign_folder() {
         "{err}"
     );
     assert_eq!(parts(&out.join("runs")), before);
-
-    sweep_into(dir.path(), &out, &["--batch-size", "2", "--resume"]);
+    // The command it suggests names the dataset's own copy of the sweep file, and works.
+    let copy = out.join("sweep.toml");
+    let suggested = format!(
+        "mbmf sweep {} --out {} --resume",
+        copy.display(),
+        out.display()
+    );
+    assert!(err.contains(&suggested), "{err}");
+    run_ok(&[
+        "sweep",
+        copy.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--resume",
+        "--quiet",
+    ]);
     let (lock, _) =
         mbmf::sweep::store::Lock::acquire(&out, mbmf::sweep::Shard { index: 1, count: 2 }).unwrap();
     let e = run(&["compact", out.to_str().unwrap()]);

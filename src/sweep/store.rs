@@ -924,13 +924,15 @@ pub fn compact(dir: &Path, target_runs: u64, command: &str) -> Result<Compacted,
             dir,
             format!(
                 "is incomplete: {} of {total} runs are written{}; finish it with mbmf sweep \
-                 {SWEEP_FILE} --out {} --resume, then compact",
+                 {} --out {} --resume, then compact",
                 scan.done.len(),
                 if scan.leftovers.is_empty() {
                     String::new()
                 } else {
                     format!(" and {} unfinished file(s) remain", scan.leftovers.len())
                 },
+                // The dataset's own copy of the sweep file, which --resume accepts.
+                dir.join(SWEEP_FILE).display(),
                 dir.display()
             ),
         ));
