@@ -209,3 +209,30 @@ fn plot_x_refuses_columns_that_are_not_numbers_naming_the_numeric_ones() {
         "no figure for a refused plot"
     );
 }
+
+/// A curve that averages several conditions says which parameters vary within it, over time
+/// and in a response curve; curves of single conditions say nothing.
+#[test]
+fn plot_names_the_parameters_that_vary_within_a_curve() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = common::write_sweep(
+        dir.path(),
+        "k.toml",
+        "seeds = 2\n[fixed]\nsteps = 200\nbabbling = 20\ncheckpoint = 100\n\
+         [grid]\ncontroller = [\"mf\", \"ec\"]\nkappa_coeff = [1, 9]\n",
+    );
+    let out = dir.path().join("k");
+    let out_s = out.to_str().unwrap();
+    common::run_ok(&["sweep", &file, "--out", out_s, "--quiet"]);
+    let stdout = |args: &[&str]| {
+        let o = common::run_ok(&[&["plot", out_s][..], args].concat());
+        String::from_utf8(o.stdout).unwrap()
+    };
+    let mixed = "within groups these parameters also vary: kappa_coeff;";
+    assert!(stdout(&["--by", "controller"]).contains(mixed));
+    let held = stdout(&["--by", "controller", "--where", "kappa_coeff=9"]);
+    assert!(!held.contains("also vary"), "{held}");
+    assert!(stdout(&["--x", "kappa_coeff"]).contains("also vary: controller;"));
+    let response = stdout(&["--x", "kappa_coeff", "--by", "controller"]);
+    assert!(!response.contains("also vary"), "{response}");
+}

@@ -96,6 +96,9 @@ pub struct Curves {
     pub curves: Vec<Curve>,
     /// Every step at which some selected run's schedule has an event, ascending.
     pub change_steps: Vec<u32>,
+    /// Configuration columns other than `by` that vary within a curve's runs: a curve then
+    /// averages conditions, which `mbmf plot` says (as `mbmf stats` does).
+    pub mixed: Vec<String>,
 }
 
 /// One observation: a run's value of the metric at a checkpoint, with the run's group.
@@ -271,12 +274,14 @@ pub fn curves_of(
             ),
         });
     }
+    let mixed = dataset::mixed_columns(runs, by, &dataset::group_rows(runs, &[by.to_owned()])?);
     Ok(Curves {
         source: series.source().to_owned(),
         by: by.to_owned(),
         metric,
         curves,
         change_steps: change_steps.into_iter().collect(),
+        mixed,
     })
 }
 

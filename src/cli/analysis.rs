@@ -684,7 +684,7 @@ fn print_comparison(c: &Comparison) {
 }
 
 /// The parameters that vary within the compared groups, if any, and how to hold them fixed.
-fn print_mixed(mixed: &[String]) {
+pub(super) fn print_mixed(mixed: &[String]) {
     if !mixed.is_empty() {
         outln!(
             "within groups these parameters also vary: {}; add --where COLUMN=VALUE to compare \

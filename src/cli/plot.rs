@@ -90,6 +90,7 @@ fn over_time(args: &PlotArgs, by: &str, folder: &Path) -> Result<(), Failure> {
             c.steps.len()
         );
     }
+    super::analysis::print_mixed(&curves.mixed);
     if !curves.change_steps.is_empty() {
         let steps: Vec<String> = curves.change_steps.iter().map(u32::to_string).collect();
         outln!("changes marked at step {}", steps.join(", "));
@@ -120,6 +121,11 @@ fn response(args: &PlotArgs, x: &str, by: Option<&str>, folder: &Path) -> Result
         outln!("{group}: {runs} runs at {} values of {x}", c.x.len());
     }
     outln!("(mean of {metric} over runs, band: 95% Student-t confidence interval)");
+    // A point averages every configuration at its x (and group): say which others vary there.
+    let mut keys = vec![x.to_owned()];
+    keys.extend(by.map(str::to_owned));
+    let grouped = dataset::group_rows(&runs, &keys).map_err(usage)?;
+    super::analysis::print_mixed(&dataset::mixed_columns(&runs, x, &grouped));
     print_written(&paths);
     Ok(())
 }
