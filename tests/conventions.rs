@@ -393,6 +393,28 @@ fn sweep_json_counts_the_runs() {
     assert_eq!(report["done_before"], 0);
     assert!(report["parts_written"].as_u64().expect("parts") >= 1);
     assert_eq!(report["out"], out.to_str().expect("UTF-8 path"));
+
+    // A dry run with --json is one object too: the plan and its estimates, nothing run.
+    let dry = dir.path().join("dry");
+    let text = stdout_of(&[
+        "sweep",
+        file.to_str().expect("UTF-8 path"),
+        "--dry-run",
+        "--json",
+        "--out",
+        dry.to_str().expect("UTF-8 path"),
+    ]);
+    let plan: serde_json::Value = serde_json::from_str(&text).expect("one JSON object");
+    assert_eq!(plan["verb"], "sweep");
+    assert_eq!(plan["dry_run"], true);
+    assert_eq!(plan["runs"], 4);
+    assert_eq!(
+        plan["configurations"].as_u64().unwrap() * plan["seeds"].as_u64().unwrap(),
+        4
+    );
+    assert!(plan["agent_steps"].as_u64().expect("agent-steps") > 0);
+    assert!(plan["estimated_seconds"].as_f64().expect("seconds") >= 0.0);
+    assert!(!dry.exists(), "a dry run writes nothing");
 }
 
 #[test]

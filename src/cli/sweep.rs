@@ -151,12 +151,39 @@ pub fn command(args: &SweepArgs) -> Result<(), Failure> {
             }
         );
         if args.dry_run {
-            outln!("{}", describe_plan(&sweep, shard));
-            outln!(
-                "  agent-steps: {}{} (babbling included)\n{estimate}",
-                if size.exact { "" } else { "about " },
-                e.agent_steps
-            );
+            if args.json {
+                // u128 counts as numbers where JSON's doubles hold them exactly, else as text.
+                let count = |n: u128| match u64::try_from(n) {
+                    Ok(n) if n < (1 << 53) => serde_json::json!(n),
+                    _ => serde_json::json!(n.to_string()),
+                };
+                let json = serde_json::json!({
+                    "verb": "sweep",
+                    "dry_run": true,
+                    "file": args.file.display().to_string(),
+                    "shard": shard.to_string(),
+                    "configurations": sweep.configurations(),
+                    "seeds": sweep.seeds,
+                    "master_seed": sweep.master_seed,
+                    "runs": count(size.runs),
+                    "agent_steps": count(e.agent_steps),
+                    "exact": size.exact,
+                    "estimated_seconds": e.seconds,
+                    "threads": e.threads,
+                    "estimated_output_bytes": count(size.output_bytes()),
+                    "series_rows": count(size.series_rows),
+                    "trace_rows": count(size.trace_rows),
+                    "warnings": sweep.warnings,
+                });
+                outln!("{json}");
+            } else {
+                outln!("{}", describe_plan(&sweep, shard));
+                outln!(
+                    "  agent-steps: {}{} (babbling included)\n{estimate}",
+                    if size.exact { "" } else { "about " },
+                    e.agent_steps
+                );
+            }
             if let Err(refusal) = sizing::check_time(&e, &shrink) {
                 return Err(usage(anyhow!("{}: {refusal}", args.file.display())));
             }
