@@ -205,6 +205,10 @@ fn settings_the_controllers_ignore_are_warned_about_with_their_line() {
         "{warnings:?}"
     );
     assert!(w("[fixed]\ninteraction = \"takeover\"\n[grid]\nbudget = [0, 10, 20]\n").is_empty());
+    // Configurations equal in every value are the repeated-value warning's, not this one's.
+    let warnings = w("[grid]\nbudget = [5, 5]\n");
+    assert_eq!(warnings.len(), 1, "{warnings:?}");
+    assert!(warnings[0].contains("lists 5 twice"), "{warnings:?}");
     for entry in std::fs::read_dir(common::repo().join("sweeps")).unwrap() {
         let path = entry.unwrap().path();
         if path.extension().is_some_and(|e| e == "toml") {

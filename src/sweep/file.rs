@@ -5,7 +5,7 @@
 //! seed `r % seeds` of configuration `r / seeds`. That global run index, with the master seed,
 //! fixes the run's random stream, so batching, sharding and resuming never change a result.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -1427,8 +1427,10 @@ impl Sweep {
             .filter_map(|&name| Some((Key::lookup(name)?, name)))
             .collect();
         let mut mislabelled: (u64, Vec<Controller>) = (0, Vec::new());
-        // Per configuration's values but the ignored ones: how many, and what was ignored.
-        let mut groups: HashMap<String, (u64, Vec<Key>, Vec<Controller>)> = HashMap::new();
+        // Per configuration's values but the ignored ones: the distinct full sets of values
+        // (configurations equal in every value are another warning's), and what was ignored.
+        type Group = (HashSet<String>, Vec<Key>, Vec<Controller>);
+        let mut groups: HashMap<String, Group> = HashMap::new();
         for config in 0..self.configurations.min(IGNORED_SCAN) {
             let set = self.explicit(config);
             let r = self.resolve(config);
@@ -1461,12 +1463,15 @@ impl Sweep {
             if ignored.is_empty() {
                 continue;
             }
-            let signature: Vec<String> = Key::all()
-                .filter(|k| !ignored.contains(k))
-                .filter_map(|k| Some(format!("{}={}", k.name(), set[k.index()]?)))
-                .collect();
-            let group = groups.entry(signature.join("\u{1f}")).or_default();
-            group.0 += 1;
+            let values = |keep: &dyn Fn(&Key) -> bool| {
+                Key::all()
+                    .filter(keep)
+                    .filter_map(|k| Some(format!("{}={}", k.name(), set[k.index()]?)))
+                    .collect::<Vec<_>>()
+                    .join("\u{1f}")
+            };
+            let group = groups.entry(values(&|k| !ignored.contains(k))).or_default();
+            group.0.insert(values(&|_| true));
             for k in ignored {
                 if !group.1.contains(&k) {
                     group.1.push(k);
@@ -1499,8 +1504,8 @@ impl Sweep {
             ));
         }
         let (mut repeats, mut keys, mut controllers) = (0u64, Vec::new(), Vec::new());
-        for (n, ks, cs) in groups.into_values().filter(|g| g.0 > 1) {
-            repeats += n - 1;
+        for (distinct, ks, cs) in groups.into_values().filter(|g| g.0.len() > 1) {
+            repeats += distinct.len() as u64 - 1;
             keys.extend(
                 ks.into_iter()
                     .filter(|k| !keys.contains(k))
