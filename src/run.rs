@@ -600,17 +600,13 @@ fn warnings(job: &Job) -> Vec<String> {
         }
     }
     for name in job.set.iter().copied() {
-        let owners: Vec<&str> = Controller::ALL
-            .iter()
-            .filter(|c| c.own_params().contains(&name))
-            .map(|c| c.name())
-            .collect();
-        if !owners.is_empty() && !listed.iter().any(|c| c.own_params().contains(&name)) {
+        let owners = Controller::readers(name);
+        if !owners.is_empty() && !listed.iter().any(|c| owners.contains(c)) {
             warnings.push(format!(
                 "{} changes nothing here: only {} reads it, and --controller lists {}",
                 crate::params::cli_flag(name),
-                owners.join(", "),
-                names(&listed)
+                Controller::names(&owners),
+                Controller::names(&listed)
             ));
         }
     }
@@ -625,7 +621,7 @@ fn warnings(job: &Job) -> Vec<String> {
             warnings.push(format!(
                 "--combine mix does not apply to {}, which {run} with select ({their} \
                  combine = mix, as given)",
-                names(&ignoring)
+                Controller::names(&ignoring)
             ));
         }
     }
@@ -642,12 +638,6 @@ fn warnings(job: &Job) -> Vec<String> {
         warnings.push(format!("--{}", no_transition(&job.task)));
     }
     warnings
-}
-
-/// Controllers' names joined with commas.
-fn names(controllers: &[Controller]) -> String {
-    let names: Vec<&str> = controllers.iter().map(|c| c.name()).collect();
-    names.join(", ")
 }
 
 /// The warning for a task whose world has no transition (every action leaves every state as

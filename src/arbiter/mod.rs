@@ -267,6 +267,22 @@ pub trait Visit {
     fn visit<A: Arbiter>(self) -> Self::Output;
 }
 
+impl Controller {
+    /// The rules that read parameter `name` as their own ([`Arbiter::PARAMS`]), in report order.
+    pub fn readers(name: &str) -> Vec<Controller> {
+        Controller::ALL
+            .into_iter()
+            .filter(|c| c.own_params().contains(&name))
+            .collect()
+    }
+
+    /// The names of `controllers`, joined with commas, for messages.
+    pub fn names(controllers: &[Controller]) -> String {
+        let names: Vec<&str> = controllers.iter().map(|c| c.name()).collect();
+        names.join(", ")
+    }
+}
+
 /// The registry: one line per rule, `Variant => "name", module::Type, "help";` (the help is
 /// the value's description in `--help`). The order is the order results are reported in.
 macro_rules! arbiters {

@@ -1486,7 +1486,6 @@ impl Sweep {
         } else {
             String::new()
         };
-        let names = |cs: &[Controller]| cs.iter().map(|c| c.name()).collect::<Vec<_>>().join(", ");
         let configurations = |n: u64| match n {
             1 => "1 configuration".to_string(),
             n => format!("{n} configurations"),
@@ -1499,7 +1498,7 @@ impl Sweep {
                 "{}: combine = mix does not apply to {} ({}{scanned}): their runs are those of \
                  select, but their rows say mix",
                 self.place(k),
-                names(&mislabelled.1),
+                Controller::names(&mislabelled.1),
                 configurations(mislabelled.0)
             ));
         }
@@ -1530,16 +1529,12 @@ impl Sweep {
                             .copied()
                             .filter(|c| !c.combines())
                             .collect();
-                        format!("combine does not apply to {}", names(&ignoring))
+                        format!("combine does not apply to {}", Controller::names(&ignoring))
                     } else if Some(k) == budget {
                         "no interaction spends a budget".to_string()
                     } else {
-                        let readers: Vec<Controller> = Controller::ALL
-                            .iter()
-                            .copied()
-                            .filter(|c| c.own_params().contains(&k.name()))
-                            .collect();
-                        format!("only {} reads {}", names(&readers), k.name())
+                        let readers = Controller::readers(k.name());
+                        format!("only {} reads {}", Controller::names(&readers), k.name())
                     }
                 })
                 .collect();
@@ -1548,7 +1543,7 @@ impl Sweep {
                  {}, which changes nothing there ({}); a [[zip]] pairs each {}",
                 self.place(keys[0]),
                 configurations(repeats),
-                names(&controllers),
+                Controller::names(&controllers),
                 if repeats == 1 { "repeats" } else { "repeat" },
                 key_names.join(", "),
                 why.join("; "),
