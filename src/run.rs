@@ -260,6 +260,7 @@ impl Run {
             series: "raise --checkpoint (0 writes no series rows), or lower --steps or --runs"
                 .into(),
             time: "lower --runs or --steps, or give fewer --controller".into(),
+            parts: None,
         };
         // With `force` the results already there are replaced, so their space counts as free.
         let credit = if job.force {

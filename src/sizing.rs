@@ -11,14 +11,25 @@ use crate::batch::{Batch, RunConfig};
 use crate::env::Spec;
 use crate::params::{ConfigError, Params};
 
-/// Bytes a run's row takes in runs.parquet, compressed: measured 9 to 51 B on tidy1 (about 60
-/// columns, most of them constant within a file), rounded up.
-pub const RUN_ROW_DISK_BYTES: u64 = 64;
-/// Bytes a checkpoint row takes in series.parquet, compressed: measured 5.5 B on tidy1.
-pub const SERIES_ROW_DISK_BYTES: u64 = 6;
+/// Bytes a run's row takes in runs.parquet, compressed, beyond its file's footer: measured 99 B
+/// (`sweeps/kappa.toml`) and 135 B (`sweeps/arbitration-tidy.toml`) where parameters vary
+/// between runs, 9 to 51 B in a tidy1 file of one configuration; rounded up.
+pub const RUN_ROW_DISK_BYTES: u64 = 128;
+/// Bytes a checkpoint row takes in series.parquet, compressed: measured 11.4 B and 16.5 B in
+/// the same sweeps (5.5 B in a tidy1 file of one configuration).
+pub const SERIES_ROW_DISK_BYTES: u64 = 16;
 /// Bytes a step's row takes in trace.parquet, compressed: measured 1.5 B on tidy1 (`ec`, 10,000
-/// steps) and 0.6 B on twostep, rounded up for larger worlds (`docs/guide/trace.md`).
+/// steps), 2.5 B in `sweeps/arbitration-tidy.toml` and 0.6 B on twostep, rounded up for larger
+/// worlds (`docs/guide/trace.md`).
 pub const TRACE_ROW_DISK_BYTES: u64 = 4;
+/// Bytes of a runs file (a part of a sweep) beyond its rows: the footer (the Arrow schema with
+/// every column's description, the provenance) and the column chunks' headers, measured 31 KB of
+/// footer and 38 KB for a file of 6 rows.
+pub const RUNS_FILE_DISK_BYTES: u64 = 40 << 10;
+/// The same for a series file: 21 KB of footer, 26 KB for a file of 36 rows.
+pub const SERIES_FILE_DISK_BYTES: u64 = 28 << 10;
+/// The same for a trace file: 8 KB of footer.
+pub const TRACE_FILE_DISK_BYTES: u64 = 10 << 10;
 /// Longest estimated time accepted for one process: a job that would run for more than a year
 /// on this machine is surely a mistake (or needs shards).
 pub const MAX_SECONDS: f64 = 365.0 * 86_400.0;
@@ -43,6 +54,8 @@ pub struct Size {
     pub series_rows: u128,
     /// Step rows of trace.parquet (0 without the trace).
     pub trace_rows: u128,
+    /// Files written per table: 1 for `mbmf run`, a sweep's parts.
+    pub parts: u128,
     /// False when the counts were extrapolated from a sample of the configurations (a shard of
     /// a huge grid): then they are estimates.
     pub exact: bool,
@@ -55,6 +68,7 @@ impl Default for Size {
             agent_steps: 0,
             series_rows: 0,
             trace_rows: 0,
+            parts: 1,
             exact: true,
         }
     }
@@ -74,18 +88,25 @@ impl Size {
         }
     }
 
-    /// Estimated bytes of every table on disk.
+    /// Estimated bytes of every table on disk: the rows, and each file's footer and headers
+    /// (most of a small sweep's output).
     pub fn output_bytes(&self) -> u128 {
-        self.runs
-            .saturating_mul(u128::from(RUN_ROW_DISK_BYTES))
-            .saturating_add(
-                self.series_rows
-                    .saturating_mul(u128::from(SERIES_ROW_DISK_BYTES)),
-            )
-            .saturating_add(
-                self.trace_rows
-                    .saturating_mul(u128::from(TRACE_ROW_DISK_BYTES)),
-            )
+        let per_file = RUNS_FILE_DISK_BYTES
+            + SERIES_FILE_DISK_BYTES
+            + if self.trace_rows > 0 {
+                TRACE_FILE_DISK_BYTES
+            } else {
+                0
+            };
+        let terms = [
+            (self.runs, RUN_ROW_DISK_BYTES),
+            (self.series_rows, SERIES_ROW_DISK_BYTES),
+            (self.trace_rows, TRACE_ROW_DISK_BYTES),
+            (self.parts, per_file),
+        ];
+        terms.iter().fold(0u128, |sum, &(n, bytes)| {
+            sum.saturating_add(n.saturating_mul(u128::from(bytes)))
+        })
     }
 
     /// Whether the job is large enough to print its size and time before it starts.
@@ -126,6 +147,8 @@ pub struct Shrink {
     pub series: String,
     /// What lowers the time.
     pub time: String,
+    /// What lowers the number of part files (a sweep's), when something does.
+    pub parts: Option<String>,
 }
 
 /// A job refused before it starts because of its size.
@@ -192,14 +215,14 @@ pub fn check_size(size: &Size, out: &Path, credit: u64, shrink: &Shrink) -> Resu
                 .trace_rows
                 .saturating_mul(u128::from(TRACE_ROW_DISK_BYTES));
             let runs = size.runs.saturating_mul(u128::from(RUN_ROW_DISK_BYTES));
-            let fix = if trace > series && trace > runs {
-                "leave out the trace (--trace, or trace = true in a sweep file), or lower the \
-                 steps or the runs"
-                    .to_string()
-            } else if series > runs {
-                shrink.series.clone()
-            } else {
-                shrink.runs.clone()
+            let files = bytes - series - trace - runs;
+            let fix = match &shrink.parts {
+                Some(fix) if files > series.max(trace).max(runs) => fix.clone(),
+                _ if trace > series && trace > runs => "leave out the trace (--trace, or trace = \
+                     true in a sweep file), or lower the steps or the runs"
+                    .to_string(),
+                _ if series > runs => shrink.series.clone(),
+                _ => shrink.runs.clone(),
             };
             return Err(SizeError::TooLarge {
                 size: format!("{} ({})", human_bytes(bytes), size.rows()),
@@ -389,11 +412,19 @@ mod tests {
             (size.runs, size.agent_steps, size.series_rows),
             (3, 3030, 12)
         );
-        assert_eq!(size.output_bytes(), 3 * 64 + 12 * 6);
+        let files = 68 << 10;
+        assert_eq!(size.output_bytes(), 3 * 128 + 12 * 16 + files);
         // The trace: a row per experiment step, babbling not traced.
         size.add(2, &params, true);
         assert_eq!(size.trace_rows, 2000);
-        assert_eq!(size.output_bytes(), 5 * 64 + 20 * 6 + 2000 * 4);
+        let files = files + (10 << 10);
+        assert_eq!(size.output_bytes(), 5 * 128 + 20 * 16 + 2000 * 4 + files);
+        // A sweep writes a runs, series and trace file per part.
+        size.parts = 3;
+        assert_eq!(
+            size.output_bytes(),
+            5 * 128 + 20 * 16 + 2000 * 4 + 3 * files
+        );
         assert!(
             size.line()
                 .ends_with("(5 runs rows, 20 series rows, 2000 trace rows)")
@@ -406,6 +437,7 @@ mod tests {
             runs: "lower R".into(),
             series: "lower S".into(),
             time: "lower T".into(),
+            parts: Some("fewer P".into()),
         };
         let runs = Size {
             runs: MAX_RUNS + 1,

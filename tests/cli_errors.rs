@@ -707,12 +707,25 @@ impl Drop for Tmpfs {
 }
 
 #[test]
-fn a_full_disk_fails_with_code_1_and_leaves_neither_result_file() {
-    let Some(disk) = Tmpfs::mount("64k") else {
-        eprintln!("SKIP: mounting a 64 KiB tmpfs needs root (CAP_SYS_ADMIN)");
+fn a_full_disk_fails_with_code_1_and_keeps_the_results_it_was_to_replace() {
+    let Some(disk) = Tmpfs::mount("160k") else {
+        eprintln!("SKIP: mounting a 160 KiB tmpfs needs root (CAP_SYS_ADMIN)");
         return;
     };
     let out = disk.0.path().join("out");
+    let job = |seed: &str, force: bool| {
+        let mut command = Command::new(env!("CARGO_BIN_EXE_mbmf"));
+        command.args(["run", "--quiet", "--runs", "20", "--steps", "2000"]);
+        command.args(["--babbling", "10", "--checkpoint", "50", "--seed", seed]);
+        if force {
+            command.arg("--force");
+        }
+        command
+            .arg("--out")
+            .arg(&out)
+            .output()
+            .expect("the binary runs")
+    };
     // A job whose estimate is far beyond the disk is refused before any work (exit 2).
     let refused = Command::new(env!("CARGO_BIN_EXE_mbmf"))
         .args([
@@ -732,23 +745,29 @@ fn a_full_disk_fails_with_code_1_and_leaves_neither_result_file() {
     assert_eq!(refused.status.code(), Some(2), "{stderr}");
     assert!(stderr.contains("raise --checkpoint"), "{stderr}");
     assert!(!out.exists(), "a refused job created --out");
-    // Estimated at 24 KiB (rows only), it writes about 85 KiB with the files' metadata: the
-    // disk fills while series.parquet is written.
-    let output = Command::new(env!("CARGO_BIN_EXE_mbmf"))
-        .args([
-            "run",
-            "--quiet",
-            "--runs",
-            "20",
-            "--steps",
-            "2000",
-            "--babbling",
-            "10",
-        ])
-        .args(["--checkpoint", "50", "--out"])
-        .arg(&out)
-        .output()
-        .expect("the binary runs");
+    // About 85 KiB of results (estimated 83 KiB, the files' footers included) fit.
+    let first = job("1", false);
+    assert!(
+        first.status.success(),
+        "{}",
+        String::from_utf8_lossy(&first.stderr)
+    );
+    let files = |dir: &std::path::Path| {
+        let mut files: Vec<(String, Vec<u8>)> = std::fs::read_dir(dir)
+            .expect("the output folder")
+            .map(|e| {
+                let e = e.expect("an entry");
+                let bytes = std::fs::read(e.path()).expect("a file");
+                (e.file_name().to_string_lossy().into_owned(), bytes)
+            })
+            .collect();
+        files.sort();
+        files
+    };
+    let before = files(&out);
+    // Replacing them passes the disk check (their space counts as free) but the new files are
+    // written beside the old ones before they replace them: the disk fills.
+    let output = job("2", true);
     let stderr = String::from_utf8_lossy(&output.stderr);
     assert_eq!(output.status.code(), Some(1), "{stderr}");
     // The cause once, though Parquet's error quotes the I/O error it also gives as its source.
@@ -759,11 +778,11 @@ fn a_full_disk_fails_with_code_1_and_leaves_neither_result_file() {
     );
     assert!(!stderr.contains("External:"), "{stderr}");
     assert!(!stderr.contains("panicked"), "{stderr}");
-    let left: Vec<_> = std::fs::read_dir(&out)
-        .expect("the output folder was created")
-        .map(|e| e.expect("an entry").file_name())
-        .collect();
-    assert!(left.is_empty(), "left behind: {left:?}");
+    // The earlier results are untouched and nothing else is left.
+    let after = files(&out);
+    let names: Vec<&String> = after.iter().map(|(n, _)| n).collect();
+    assert_eq!(names, ["runs.parquet", "series.parquet"]);
+    assert!(after == before, "the earlier results changed");
 }
 
 /// Inputs refused before any work: the output folder of every verb that writes one, the numeric
@@ -930,7 +949,7 @@ fn huge_jobs_are_sized_by_arithmetic_and_print_their_estimate_first() {
         .find(|l| l.starts_with("note: 1000000 runs, 11000000000 agent-steps"))
         .unwrap_or_else(|| panic!("no size note:\n{stderr}"));
     assert!(
-        note.contains("about 61.0 MiB of output (1000000 runs rows, 0 series rows)")
+        note.contains("about 122.1 MiB of output (1000000 runs rows, 0 series rows)")
             && note.contains("estimated time: about"),
         "{note}"
     );

@@ -356,6 +356,44 @@ fn dry_run_prints_configurations_runs_and_an_estimate_and_writes_nothing() {
     assert!(!out_dir.exists());
 }
 
+/// The disk check refuses a sweep on its estimate, so the estimate must count what is written:
+/// every part file carries a footer of tens of KiB (most of a small sweep's bytes).
+#[test]
+fn the_dry_run_counts_the_parts_and_estimates_the_bytes_the_sweep_writes() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = write_sweep(dir.path(), "small.toml", SMALL);
+    let out_dir = dir.path().join("out");
+    // 4 configurations of 3 runs, batches of 5: a configuration is not split across parts, and
+    // each batch holds one controller and interaction, so each configuration is a part.
+    let out = run_ok(&["sweep", &file, "--dry-run", "--json", "--batch-size", "5"]);
+    let plan: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(plan["parts"], 4, "{plan}");
+    let estimate = plan["estimated_output_bytes"].as_f64().unwrap();
+    let text = run_ok(&["sweep", &file, "--dry-run", "--batch-size", "5"]);
+    let text = String::from_utf8_lossy(&text.stdout);
+    assert!(text.contains("; 4 part(s) of at most 5 runs)"), "{text}");
+    run_ok(&[
+        "sweep",
+        &file,
+        "--out",
+        out_dir.to_str().unwrap(),
+        "--quiet",
+        "--batch-size",
+        "5",
+    ]);
+    assert_eq!(parts(&out_dir, "runs").len(), 4);
+    let written: u64 = ["runs", "series"]
+        .iter()
+        .flat_map(|t| std::fs::read_dir(out_dir.join(t)).unwrap())
+        .map(|e| e.unwrap().metadata().unwrap().len())
+        .sum();
+    let ratio = estimate / written as f64;
+    assert!(
+        (0.8..1.5).contains(&ratio),
+        "estimated {estimate} B, wrote {written} B"
+    );
+}
+
 #[test]
 fn the_dataset_equals_mbmf_run_for_the_same_runs() {
     let dir = tempfile::tempdir().unwrap();
@@ -743,7 +781,9 @@ fn a_full_disk_fails_with_a_clear_error_and_leaves_no_partial_file() {
         }
     };
     let out = mount.0.join("dataset");
-    let result = run(&[
+    // The front ends refuse this sweep before it starts: its 20 parts' footers alone exceed the
+    // disk (exit 2, nothing created).
+    let refused = run(&[
         "sweep",
         &file,
         "--out",
@@ -751,8 +791,34 @@ fn a_full_disk_fails_with_a_clear_error_and_leaves_no_partial_file() {
         "--batch-size",
         "8",
     ]);
-    assert_eq!(result.status.code(), Some(1));
-    let err = String::from_utf8_lossy(&result.stderr);
+    assert_eq!(refused.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&refused.stderr);
+    assert!(
+        err.contains("more than the 64.0 KiB free") && err.contains("raise --batch-size"),
+        "{err}"
+    );
+    assert!(!out.exists());
+    // A disk that fills while the sweep runs (other jobs write to it too) is the library's to
+    // meet: its runner, which the front ends call once the size is checked.
+    let sweep = Sweep::load(Path::new(&file)).unwrap();
+    let specs = sweep.load_specs().unwrap();
+    let options = mbmf::sweep::Options {
+        out: out.clone(),
+        resume: false,
+        shard: Shard::ALL,
+        batch_size: 8,
+        command: "test".into(),
+    };
+    let stop = std::sync::atomic::AtomicBool::new(false);
+    let error = mbmf::sweep::execute(&sweep, &specs, &options, &stop, &mut |_| {})
+        .expect_err("the disk fills");
+    // The message and its causes, as the front ends print them.
+    let mut err = error.to_string();
+    let mut cause = std::error::Error::source(&error);
+    while let Some(c) = cause {
+        err += &format!(": {c}");
+        cause = c.source();
+    }
     assert!(err.contains("No space left on device"), "{err}");
     assert!(err.contains("part-"), "the message names the file: {err}");
     assert!(temporaries(&out).is_empty(), "{:?}", temporaries(&out));
@@ -925,7 +991,7 @@ fn a_sweep_is_sized_by_arithmetic_exactly_as_by_enumeration() {
     let text = "seeds = 3\n[grid]\nkappa_coeff = { from = 0, to = 1, steps = 100000 }\n\
                 steps = [10, 25]\ncheckpoint = [0, 10]\n[fixed]\nbabbling = 5\n";
     let sweep = parse(text);
-    let size = sweep.size(Shard::ALL);
+    let size = sweep.size(Shard::ALL, 256);
     assert!(size.exact);
     let n = 100_000u128 * 3;
     assert_eq!(size.runs, 4 * n);
@@ -933,12 +999,18 @@ fn a_sweep_is_sized_by_arithmetic_exactly_as_by_enumeration() {
     assert_eq!(size.agent_steps, n * 2 * (15 + 30));
     // Rows: checkpoint 0 none; checkpoint 10 gives 1 (10 steps) and 3 (25 steps).
     assert_eq!(size.series_rows, n * (1 + 3));
+    // One kind of run, so parts of 85 configurations (255 runs: the 86th would not fit): 4,706
+    // parts when enumerated; the four axes' combinations, each standing for 300,000 runs, give
+    // 4 x 1,172.
+    assert_eq!(size.parts, 4 * 1172);
     // A shard of it is estimated from the same axes, in proportion.
-    let half = sweep.size(Shard { index: 1, count: 2 });
+    let half = sweep.size(Shard { index: 1, count: 2 }, 256);
     assert_eq!(half.runs, 2 * n);
     assert!(!half.exact && half.agent_steps == n * (15 + 30));
     // A small grid is enumerated: the same counts.
     let small = parse("[grid]\nsteps = [10, 25]\ncheckpoint = [0, 10]\n[fixed]\nbabbling = 5\n");
-    let size = small.size(Shard::ALL);
+    let size = small.size(Shard::ALL, 256);
     assert_eq!((size.runs, size.agent_steps, size.series_rows), (4, 90, 4));
+    assert_eq!(size.parts, 1);
+    assert_eq!(small.size(Shard::ALL, 3).parts, 2);
 }

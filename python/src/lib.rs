@@ -932,13 +932,8 @@ fn sweep(
         "shards are numbered from 0, so shard=(INDEX, COUNT) needs INDEX < COUNT",
     )
     .map_err(|e| refuse("shard", format!("{shard:?}"), e))?;
-    let size = loaded.size(shard);
-    let credit = if resume {
-        mbmf::sizing::bytes_under(&out)
-    } else {
-        0
-    };
-    mbmf::sizing::check_size(&size, &out, credit, &loaded.shrink())
+    loaded
+        .check_size(shard, batch_size, &out, resume)
         .map_err(|e| PyValueError::new_err(format!("{name}: {e}")))?;
     let specs = loaded.load_specs().map_err(py_error)?;
     loaded.check(&specs).map_err(py_error)?;

@@ -106,15 +106,10 @@ pub fn command(args: &SweepArgs) -> Result<(), Failure> {
     }
     // Sized by arithmetic before anything is loaded, checked or allocated: a grid too large
     // to run is refused in a moment, naming what shrinks it.
-    let size = sweep.size(shard);
     let shrink = sweep.shrink();
     let out = args.out_dir();
-    let credit = if args.resume {
-        sizing::bytes_under(&out)
-    } else {
-        0
-    };
-    sizing::check_size(&size, &out, credit, &shrink)
+    let size = sweep
+        .check_size(shard, args.batch_size, &out, args.resume)
         .map_err(|e| usage(anyhow!("{}: {e}", args.file.display())))?;
     let specs = sweep.load_specs().map_err(usage)?;
     for (task, spec) in sweep.tasks.iter().zip(&specs) {
@@ -136,7 +131,8 @@ pub fn command(args: &SweepArgs) -> Result<(), Failure> {
         };
         let estimate = format!(
             "estimated time: {time} with {} thread(s) (timed on {} sample run(s) in {:.1} s)\n\
-             estimated output: about {} ({} runs rows, {}{} series rows{})",
+             estimated output: about {} ({} runs rows, {}{} series rows{}; {}{} part(s) of at most \
+             {} runs)",
             e.threads,
             e.samples,
             e.calibration_seconds,
@@ -148,7 +144,10 @@ pub fn command(args: &SweepArgs) -> Result<(), Failure> {
                 format!(", {} trace rows", size.trace_rows)
             } else {
                 String::new()
-            }
+            },
+            if size.exact { "" } else { "at least " },
+            size.parts,
+            args.batch_size,
         );
         if args.dry_run {
             if args.json {
@@ -171,6 +170,7 @@ pub fn command(args: &SweepArgs) -> Result<(), Failure> {
                     "estimated_seconds": e.seconds,
                     "threads": e.threads,
                     "estimated_output_bytes": count(size.output_bytes()),
+                    "parts": count(size.parts),
                     "series_rows": count(size.series_rows),
                     "trace_rows": count(size.trace_rows),
                     "warnings": sweep.warnings,

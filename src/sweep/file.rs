@@ -19,8 +19,9 @@ use crate::env::{self, Spec};
 use crate::params::ConfigError;
 use crate::params::{Combine, Controller, Interaction, Params, Profile};
 use crate::schedule::{Event, Schedule};
-use crate::sizing::{Shrink, Size};
+use crate::sizing::{self, Shrink, Size, SizeError};
 
+use super::runner::{PartCount, PartKey};
 use super::shard::Shard;
 
 /// Top-level keys and sections of a sweep file.
@@ -1902,9 +1903,10 @@ impl Sweep {
         }
     }
 
-    /// The runs, agent-steps and series rows of `shard`, counted without enumerating a large
-    /// grid (see [`Sweep::representatives`]).
-    pub fn size(&self, shard: Shard) -> Size {
+    /// The runs, agent-steps, series rows and parts (of `batch_size` runs at most) of `shard`,
+    /// counted without enumerating a large grid (see [`Sweep::representatives`]). The parts are
+    /// a lower bound: a batch too large for memory is split further when the sweep starts.
+    pub fn size(&self, shard: Shard, batch_size: usize) -> Size {
         let keys = [
             Key::Task,
             Key::named("steps"),
@@ -1913,19 +1915,36 @@ impl Sweep {
         ];
         let reps = self.representatives(shard, &keys, SIZE_ENUMERATE_LIMIT);
         let mut size = Size::default();
+        let mut parts = PartCount::default();
         for &(config, weight) in &reps.configs {
-            size.add(
-                weight * u128::from(self.seeds),
-                &self.resolve(config).params,
-                self.trace,
-            );
+            let resolved = self.resolve(config);
+            let runs = weight * u128::from(self.seeds);
+            size.add(runs, &resolved.params, self.trace);
+            parts.add(PartKey::of(&resolved), runs, batch_size);
         }
+        size.parts = parts.parts();
         if reps.exact {
             // The run count is known exactly whatever was sampled.
             size.runs = u128::from(shard.count_of(self.configurations)) * u128::from(self.seeds);
         }
         size.exact = reps.exact;
         size
+    }
+
+    /// Sizes `shard` ([`Sweep::size`]) and refuses it, before anything is loaded, when its runs
+    /// cannot be indexed or its results would not fit on the disk of `out`; with `resume`, the
+    /// results already in `out` count as free space. The check of every front end.
+    pub fn check_size(
+        &self,
+        shard: Shard,
+        batch_size: usize,
+        out: &Path,
+        resume: bool,
+    ) -> Result<Size, SizeError> {
+        let size = self.size(shard, batch_size);
+        let credit = if resume { sizing::bytes_under(out) } else { 0 };
+        sizing::check_size(&size, out, credit, &self.shrink())?;
+        Ok(size)
     }
 
     /// What shrinks the sweep, for the messages of [`crate::sizing`].
@@ -1953,6 +1972,12 @@ impl Sweep {
                 "raise key 'checkpoint' (0 writes no series rows) or lower 'steps', or {runs}"
             ),
             time: format!("{runs}, or split it into shards (--shard I/N)"),
+            parts: Some(
+                "raise --batch-size (fewer, larger part files: each carries a footer of some \
+                 30 KiB), or "
+                    .to_string()
+                    + &runs,
+            ),
             runs,
         }
     }

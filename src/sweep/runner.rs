@@ -200,6 +200,56 @@ impl pipeline::Writer for Parts<'_> {
     }
 }
 
+/// What the runs of one part share: task, text parameters and profile (see [`plan`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+pub struct PartKey(usize, [&'static str; 4], usize);
+
+impl PartKey {
+    /// The key of a configuration's runs.
+    pub fn of(resolved: &super::file::Resolved) -> PartKey {
+        let p = &resolved.params;
+        PartKey(
+            resolved.task,
+            [
+                p.controller.name(),
+                p.selection.name(),
+                p.cost_model.name(),
+                p.human.interaction.name(),
+            ],
+            resolved.profile,
+        )
+    }
+}
+
+/// Counts the parts [`plan`] makes of configurations added in order, without building their
+/// runs: for sizing a sweep before it starts.
+#[derive(Debug, Default)]
+pub struct PartCount {
+    pending: std::collections::BTreeMap<PartKey, u128>,
+    closed: u128,
+}
+
+impl PartCount {
+    /// Adds `runs` runs of a configuration with `key` to batches of at most `batch_size`.
+    pub fn add(&mut self, key: PartKey, runs: u128, batch_size: usize) {
+        let batch = (batch_size as u128).max(1);
+        let open = self.pending.entry(key).or_default();
+        // As `plan`: a batch is closed before a configuration that would not fit.
+        if *open > 0 && *open + runs > batch {
+            self.closed += 1;
+            *open = 0;
+        }
+        *open += runs;
+        self.closed += *open / batch;
+        *open %= batch;
+    }
+
+    /// The parts, once every configuration was added.
+    pub fn parts(&self) -> u128 {
+        self.closed + self.pending.values().filter(|&&n| n > 0).count() as u128
+    }
+}
+
 /// The runs of `shard` not in `done`, grouped into batches of one task of at most `batch_size`
 /// runs, handed to `emit` one by one with their task's index (so only a few batches exist at a
 /// time).
@@ -216,8 +266,7 @@ pub fn plan<E>(
     batch_size: usize,
     mut emit: impl FnMut(usize, Group) -> Result<(), E>,
 ) -> Result<(), E> {
-    type Key = (usize, [&'static str; 4], usize);
-    let mut pending: std::collections::BTreeMap<Key, Group> = Default::default();
+    let mut pending: std::collections::BTreeMap<PartKey, Group> = Default::default();
     let seeds = u64::from(sweep.seeds);
     let batch_size = batch_size.max(1);
     for config in shard.configs(sweep.configurations()) {
@@ -226,17 +275,7 @@ pub fn plan<E>(
             continue;
         }
         let resolved = sweep.resolve(config);
-        let p = &resolved.params;
-        let key: Key = (
-            resolved.task,
-            [
-                p.controller.name(),
-                p.selection.name(),
-                p.cost_model.name(),
-                p.human.interaction.name(),
-            ],
-            resolved.profile,
-        );
+        let key = PartKey::of(&resolved);
         let group = pending.entry(key).or_default();
         if !group.configs.is_empty() && group.configs.len() + missing > batch_size {
             emit(resolved.task, std::mem::take(group))?;
@@ -249,7 +288,7 @@ pub fn plan<E>(
             }
         }
     }
-    for ((task, _, _), group) in pending {
+    for (PartKey(task, _, _), group) in pending {
         if !group.configs.is_empty() {
             emit(task, group)?;
         }
