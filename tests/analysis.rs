@@ -243,7 +243,10 @@ fn pareto_objectives_can_be_any_numeric_columns() {
         out.to_str().unwrap(),
         "--no-plot",
     ]);
-    let table = dataset::read_parquet_file(&out.join("pareto.parquet")).unwrap();
+    // Named by its objectives: another choice of them writes another file.
+    let table =
+        dataset::read_parquet_file(&out.join("pareto-total_reward_max-cost_total_min.parquet"))
+            .unwrap();
     let kappa = floats(&table, "kappa_coeff");
     let front = bools(&table, "front");
     // On reward and cost alone, kappa 7 (reward 100, cost 10) dominates every other point.
@@ -1273,7 +1276,8 @@ fn pareto_gives_one_front_per_task_and_step_count() {
             alone.to_str().unwrap(),
         ]);
         assert!(single.contains("9 runs in 3 configurations"), "{single}");
-        let reference = dataset::read_parquet_file(&alone.join("pareto.parquet")).unwrap();
+        let reference =
+            dataset::read_parquet_file(&alone.join(format!("pareto-task-{t}.parquet"))).unwrap();
         let rows: Vec<usize> = (0..table.len())
             .filter(|&i| task.value(i) == Value::Str(t.to_owned()))
             .collect();
@@ -1380,7 +1384,13 @@ fn pareto_by_gives_one_front_and_knee_per_group_in_the_table_the_json_and_the_fi
         "{stdout}"
     );
 
-    let table = dataset::read_parquet_file(&dir.path().join("analysis/pareto.parquet")).unwrap();
+    // Named by its groups: the analysis of the whole dataset, written after, leaves it alone.
+    let by_file = dir.path().join("analysis/pareto-by-interaction.parquet");
+    let before = std::fs::read(&by_file).unwrap();
+    run_ok(&["pareto", d, "--no-plot"]);
+    assert!(dir.path().join("analysis/pareto.parquet").is_file());
+    assert_eq!(std::fs::read(&by_file).unwrap(), before);
+    let table = dataset::read_parquet_file(&by_file).unwrap();
     assert_eq!(table.len(), 8);
     let interaction = table.column("interaction").unwrap();
     let kappa = floats(&table, "kappa_coeff");

@@ -414,10 +414,11 @@ fn mbmf_stay_prints_tests_and_draws_the_stay_figure() {
         "{text}"
     );
     let figure = dir.path().join("analysis");
-    for f in ["stay.svg", "stay.png"] {
+    // Named by the groups (another --by or --where writes another figure).
+    for f in ["stay-by-controller.svg", "stay-by-controller.png"] {
         assert!(figure.join(f).metadata().unwrap().len() > 1000, "{f}");
     }
-    let svg = std::fs::read_to_string(figure.join("stay.svg")).unwrap();
+    let svg = std::fs::read_to_string(figure.join("stay-by-controller.svg")).unwrap();
     assert!(svg.contains("controller=mb") && svg.contains("unrewarded"));
 
     let figures = tempfile::tempdir().unwrap();
@@ -458,7 +459,7 @@ fn mbmf_stay_prints_tests_and_draws_the_stay_figure() {
         .unwrap();
     assert!(interaction["p"].as_f64().unwrap() < 0.01, "{interaction}");
     assert_eq!(json["files"].as_array().unwrap().len(), 2);
-    assert!(figures.path().join("stay.png").exists());
+    assert!(figures.path().join("stay-by-controller.png").exists());
 }
 
 /// `lambda_mf` > 0 with `vpi` is refused, naming both (SPEC 12.4), on the command line and in a

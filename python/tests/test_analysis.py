@@ -51,7 +51,12 @@ def test_pareto_equals_the_command_line(dataset, tmp_path, mbmf_bin, options) ->
     for b in options.get("by", []):
         args += ["--by", b]
     cli = _cli(mbmf_bin, *args)
-    written = pq.read_table(tmp_path / "pareto.parquet")
+    # The table's name says what was analysed (the defaults: pareto.parquet).
+    (path,) = cli["files"]
+    name = "pareto" + "".join(f"-{o.replace(':', '_')}" for o in options.get("objectives", "").split(",") if o)
+    name += "".join(f"-by-{b}" for b in options.get("by", []))
+    assert path == str(tmp_path / f"{name}.parquet")
+    written = pq.read_table(path)
     # From the path, and from a table in memory (polars, then the capsule of mbmf.read).
     runs = mbmf.read(dataset, output="polars")
     for data in (dataset, runs, mbmf.read(dataset)):

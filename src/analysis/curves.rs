@@ -345,6 +345,17 @@ pub fn figure_name(metric: CurveMetric, by: &str, filters: &[Filter]) -> String 
     safe_name(&format!("{}-by-{by}", metric.column()), filters)
 }
 
+/// The file name (no extension) of what an analysis writes: `stem`, then `-by-COLUMNS` when it
+/// groups by columns, then the filters as in [`figure_name`]. Analyses of other groups or other
+/// runs never share a file, so one never silently replaces another's results.
+pub fn output_name(stem: &str, by: &[String], filters: &[Filter]) -> String {
+    if by.is_empty() {
+        safe_name(stem, filters)
+    } else {
+        safe_name(&format!("{stem}-by-{}", by.join("-")), filters)
+    }
+}
+
 /// `stem`, then each filter as `-COLUMN-VALUE`, made safe for a file name (see
 /// [`figure_name`]).
 fn safe_name(stem: &str, filters: &[Filter]) -> String {

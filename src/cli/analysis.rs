@@ -10,6 +10,7 @@ use clap::Args;
 use super::{Failure, runtime, usage};
 use crate::analysis::AnalysisError;
 use crate::analysis::compare::{self, Comparison};
+use crate::analysis::curves;
 use crate::analysis::dataset::{self, Filter, Table, Value};
 use crate::analysis::front::{self, Front};
 use crate::analysis::min_budget::{self, DEFAULT_ALPHA, Level, MinBudget};
@@ -71,8 +72,10 @@ pub struct ParetoArgs {
     /// the most values, e.g. kappa_coeff).
     #[arg(long, visible_alias = "color", value_name = "COLUMN")]
     pub colour: Option<String>,
-    /// Folder for pareto.parquet, pareto.svg and pareto.png (default: analysis/ in the dataset's
-    /// folder, beside the data files, never among them).
+    /// Folder for pareto.parquet and its figures (default: analysis/ in the dataset's folder,
+    /// beside the data files, never among them). Other --objectives, --by or --where name other
+    /// files (pareto-by-interaction.parquet, pareto-task-tidy1.parquet): one analysis never
+    /// replaces another's.
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Write no figure.
@@ -118,7 +121,9 @@ pub struct MinBudgetArgs {
     /// Significance level of the one-sided tests (SPEC 9: 0.05).
     #[arg(long, default_value_t = DEFAULT_ALPHA, value_parser = super::args::number, allow_hyphen_values = true)]
     pub alpha: f64,
-    /// Folder for min_budget.parquet (default: analysis/ in the dataset's folder).
+    /// Folder for min_budget.parquet (default: analysis/ in the dataset's folder). Another
+    /// --metric or --where names another file (min_budget-reward_last10.parquet,
+    /// min_budget-interaction-takeover.parquet).
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Also print every budget of every group (mean, sd, the budgets that beat it).
@@ -141,7 +146,8 @@ pub struct StayArgs {
     /// Column whose values define the groups (e.g. controller, lambda_mf, w_mb).
     #[arg(long, value_parser = super::args::column)]
     pub by: String,
-    /// Folder for stay.svg and stay.png (default: analysis/ in the dataset's folder).
+    /// Folder for the figure, stay-by-COLUMN.svg and .png (the filters added to the name; default:
+    /// analysis/ in the dataset's folder).
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Write no figure.
@@ -170,18 +176,14 @@ fn load_for_output(data: &Dataset, out: Option<&Path>) -> Result<(PathBuf, Table
     Ok((folder, load(data)?))
 }
 
-/// Writes `table` as Parquet into `folder/name`, atomically.
-fn write_table(table: &Table, folder: &Path, name: &str) -> Result<PathBuf, Failure> {
+/// Writes `table` as Parquet into `folder/name`, atomically, with the provenance of `schema`.
+fn write_table(table: &Table, folder: &Path, name: &str, schema: &str) -> Result<PathBuf, Failure> {
     std::fs::create_dir_all(folder)
         .with_context(|| format!("cannot create output folder {}", folder.display()))
         .map_err(runtime)?;
     let batch = table
         .to_record_batch()
         .map_err(|e| runtime(anyhow!("internal error building {name}: {e}")))?;
-    let schema = match name {
-        "pareto.parquet" => crate::output::provenance::PARETO_SCHEMA,
-        _ => crate::output::provenance::MIN_BUDGET_SCHEMA,
-    };
     let metadata = crate::output::provenance(
         schema,
         &crate::output::Context {
@@ -237,10 +239,25 @@ pub fn pareto(args: &ParetoArgs) -> Result<(), Failure> {
             print_front(front, values, runs_of(g));
         }
     }
+    // Named by the runs kept, the groups and the objectives when given: `pareto.parquet` for
+    // the whole dataset, `pareto-by-interaction-controller-ec.parquet` for another question.
+    let stem = match &args.objectives {
+        Some(objectives) => {
+            let names: Vec<String> = objectives.iter().map(ToString::to_string).collect();
+            format!("pareto-{}", names.join("-"))
+        }
+        None => "pareto".to_owned(),
+    };
+    let name = curves::output_name(&stem, &args.by, &args.data.filters);
     let all = pareto
         .to_table()
-        .map_err(|e| runtime(anyhow!("internal error building pareto.parquet: {e}")))?;
-    let path = write_table(&all, &folder, "pareto.parquet")?;
+        .map_err(|e| runtime(anyhow!("internal error building {name}.parquet: {e}")))?;
+    let path = write_table(
+        &all,
+        &folder,
+        &format!("{name}.parquet"),
+        crate::output::provenance::PARETO_SCHEMA,
+    )?;
     let mut written = vec![path];
     if !args.no_plot {
         let colour = args.colour.clone().or_else(|| {
@@ -256,18 +273,13 @@ pub fn pareto(args: &ParetoArgs) -> Result<(), Failure> {
             vec![(0..fronts.len()).collect()]
         };
         for members in figures {
+            // A figure per task and length: the group's values name it beside the table's name.
             let name = if args.by.is_empty() {
-                std::iter::once("pareto".to_owned())
-                    .chain(
-                        fronts[members[0]]
-                            .0
-                            .iter()
-                            .map(|(_, v)| file_safe(&v.to_string())),
-                    )
-                    .collect::<Vec<_>>()
-                    .join("-")
+                let values = fronts[members[0]].0.iter().map(|(_, v)| v.to_string());
+                let stem: Vec<String> = std::iter::once(stem.clone()).chain(values).collect();
+                curves::output_name(&stem.join("-"), &[], &args.data.filters)
             } else {
-                format!("pareto-by-{}", file_safe(&args.by.join("-")))
+                name.clone()
             };
             let panels: Vec<(String, &Front)> = members
                 .iter()
@@ -298,20 +310,6 @@ pub fn pareto(args: &ParetoArgs) -> Result<(), Failure> {
 fn group_label(values: &[(String, Value)]) -> String {
     let parts: Vec<String> = values.iter().map(|(k, v)| format!("{k}={v}")).collect();
     parts.join(", ")
-}
-
-/// `text` with every character other than a letter, digit, `.` or `_` replaced by `_`, for a
-/// file name (a task may be `json:some/path.json`).
-fn file_safe(text: &str) -> String {
-    text.chars()
-        .map(|c| {
-            if c.is_ascii_alphanumeric() || c == '.' || c == '_' {
-                c
-            } else {
-                '_'
-            }
-        })
-        .collect()
 }
 
 /// The `--json` report of `mbmf pareto` over several groups: the one-front report of each
@@ -704,7 +702,8 @@ pub fn stay(args: &StayArgs) -> Result<(), Failure> {
     let result = stay::stay(&table, &args.by).map_err(analysis_failure)?;
     let mut files = Vec::new();
     if !args.no_plot {
-        files = plot::bar_panels(&stay_chart(&result), &folder.join("stay"))
+        let name = curves::output_name("stay", std::slice::from_ref(&args.by), &args.data.filters);
+        files = plot::bar_panels(&stay_chart(&result), &folder.join(name))
             .map_err(|e| runtime(anyhow!(e)))?;
     }
     if args.json {
@@ -858,7 +857,19 @@ pub fn min_budget(args: &MinBudgetArgs) -> Result<(), Failure> {
     if !args.json {
         print_min_budget(&result, args.levels);
     }
-    let path = write_table(&result.to_table(), &folder, "min_budget.parquet")?;
+    // Named by the metric when not the default, and by the runs kept.
+    let stem = if args.metric == "total_reward" {
+        "min_budget".to_owned()
+    } else {
+        format!("min_budget-{}", args.metric)
+    };
+    let name = curves::output_name(&stem, &[], &args.data.filters);
+    let path = write_table(
+        &result.to_table(),
+        &folder,
+        &format!("{name}.parquet"),
+        crate::output::provenance::MIN_BUDGET_SCHEMA,
+    )?;
     if args.json {
         outln!("{}", min_budget_json(&result, &path));
     } else {
