@@ -146,3 +146,101 @@ fn compact_refuses_an_incomplete_a_locked_and_a_foreign_folder() {
     assert_eq!(e.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&e.stderr).contains("not a sweep dataset"));
 }
+
+/// The metadata of a Parquet file, as (key, value) pairs.
+fn key_values(path: &Path) -> Vec<(String, String)> {
+    use parquet::file::reader::FileReader;
+    let reader =
+        parquet::file::reader::SerializedFileReader::new(std::fs::File::open(path).unwrap())
+            .unwrap();
+    reader
+        .metadata()
+        .file_metadata()
+        .key_value_metadata()
+        .unwrap()
+        .iter()
+        .map(|k| (k.key.clone(), k.value.clone().unwrap_or_default()))
+        .collect()
+}
+
+/// Parts written by two shards (two commands) merged into one file keep what told them apart:
+/// the file's provenance is the first part's, and `mbmf_merged_parts` records per part what
+/// differs from it; a second compaction nests the first's records.
+#[test]
+fn compact_keeps_every_merged_parts_provenance() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("d");
+    // One kind of run (one controller and human), so every part merges into one file.
+    let file = write_sweep(
+        dir.path(),
+        "kappa.toml",
+        "seeds = 2\n[fixed]\ntask = \"tidy1\"\ncontroller = \"ec\"\nsteps = 200\nbabbling = 50\n\
+         [grid]\nkappa_coeff = [0, 1, 2, 3]\n",
+    );
+    for shard in ["0/2", "1/2"] {
+        let o = out.to_str().unwrap();
+        run_ok(&[
+            "sweep",
+            &file,
+            "--out",
+            o,
+            "--quiet",
+            "--batch-size",
+            "2",
+            "--shard",
+            shard,
+        ]);
+    }
+    let before = parts(&out.join("runs"));
+    assert_eq!(before.len(), 4, "{before:?}");
+    let commands: Vec<String> = before
+        .iter()
+        .map(|p| {
+            let kv = key_values(&out.join("runs").join(p));
+            kv.into_iter().find(|(k, _)| k == "mbmf_command").unwrap().1
+        })
+        .collect();
+    assert!(commands.iter().any(|c| c.contains("--shard 0/2")));
+    assert!(commands.iter().any(|c| c.contains("--shard 1/2")));
+
+    run_ok(&["compact", out.to_str().unwrap()]);
+    assert_eq!(parts(&out.join("runs")).len(), 1);
+    for table in ["runs", "series"] {
+        let mut recorded = Vec::new();
+        for name in parts(&out.join(table)) {
+            let kv = key_values(&out.join(table).join(&name));
+            let merged = &kv.iter().find(|(k, _)| k == "mbmf_merged_parts").unwrap().1;
+            let merged: serde_json::Value = serde_json::from_str(merged).unwrap();
+            let own = &kv.iter().find(|(k, _)| k == "mbmf_command").unwrap().1;
+            for record in merged.as_array().unwrap() {
+                let part = record["part"].as_str().unwrap().to_owned();
+                // A part's command is the file's unless its record says otherwise.
+                let command = record["mbmf_command"].as_str().unwrap_or(own).to_owned();
+                assert!(record["mbmf_ended_utc"].is_string(), "{record}");
+                recorded.push((part, command));
+            }
+        }
+        // The file's own command is the first part's; the other shard's parts say theirs.
+        assert!(
+            recorded.iter().any(|(_, c)| c.contains("--shard 1/2")),
+            "{recorded:?}"
+        );
+        recorded.sort();
+        let mut expected: Vec<(String, String)> = before
+            .iter()
+            .cloned()
+            .zip(commands.iter().cloned())
+            .collect();
+        expected.sort();
+        assert_eq!(recorded, expected, "{table}");
+    }
+
+    // Compacted again (nothing left to merge, each file rewritten alone): the records nest.
+    run_ok(&["compact", out.to_str().unwrap()]);
+    let name = &parts(&out.join("runs"))[0];
+    let kv = key_values(&out.join("runs").join(name));
+    let merged = &kv.iter().find(|(k, _)| k == "mbmf_merged_parts").unwrap().1;
+    let merged: serde_json::Value = serde_json::from_str(merged).unwrap();
+    let inner = &merged[0]["mbmf_merged_parts"];
+    assert!(inner.as_array().is_some_and(|a| !a.is_empty()), "{merged}");
+}

@@ -1078,24 +1078,12 @@ fn write_merged(
     for (from, sub) in tables {
         let mut sink: Option<output::ParquetSink> = None;
         for (part, _) in chunk {
-            let (batches, kv) = read_all(&from.join(part))?;
+            let (batches, _) = read_all(&from.join(part))?;
             for b in &batches {
                 let sink = match &mut sink {
                     Some(s) => s,
                     None => {
-                        // The first part's provenance, with the compaction's own added.
-                        let mut kv: Vec<(String, String)> = kv
-                            .iter()
-                            .filter(|(k, _)| {
-                                k != "ARROW:schema" && k != output::provenance::ENDED_KEY
-                            })
-                            .cloned()
-                            .collect();
-                        kv.push(("mbmf_compacted_by".into(), command.to_string()));
-                        kv.push((
-                            "mbmf_compacted_utc".into(),
-                            output::provenance::utc(std::time::SystemTime::now()),
-                        ));
+                        let kv = merged_provenance(chunk, from, command)?;
                         sink.insert(output::ParquetSink::new(&staging.join(sub).join(&name), kv))
                     }
                 };
@@ -1107,6 +1095,78 @@ fn write_merged(
         }
     }
     Ok(())
+}
+
+/// Metadata key of a merged file: per part merged into it, what of its provenance differs from
+/// the file's own (a JSON array of objects, each with the part's name under `part`).
+pub const MERGED_PARTS_KEY: &str = "mbmf_merged_parts";
+
+/// The provenance of a file merging `chunk`'s parts of the table in `from`: the first part's
+/// (less its end time), the compaction's own, and [`MERGED_PARTS_KEY`], so that parts written by
+/// other shards, hosts, commands or builds keep what tells them apart.
+fn merged_provenance(
+    chunk: &[&(String, u64)],
+    from: &Path,
+    command: &str,
+) -> Result<Vec<(String, String)>, StoreError> {
+    let mut first: Option<Vec<(String, String)>> = None;
+    let mut parts = Vec::with_capacity(chunk.len());
+    for (part, _) in chunk {
+        let path = from.join(part);
+        let kv: Vec<(String, String)> = key_values(&path)?
+            .into_iter()
+            .filter(|(k, _)| k != "ARROW:schema")
+            .collect();
+        let base = first.get_or_insert_with(|| kv.clone());
+        let mut record = serde_json::Map::new();
+        record.insert("part".into(), part.clone().into());
+        for (k, v) in &kv {
+            let same = base.iter().any(|(bk, bv)| bk == k && bv == v);
+            if k == MERGED_PARTS_KEY {
+                // A part merged before keeps its own record, nested.
+                let nested = serde_json::from_str(v).unwrap_or_else(|_| v.clone().into());
+                record.insert(k.clone(), nested);
+            } else if !same || k == output::provenance::ENDED_KEY {
+                record.insert(k.clone(), v.clone().into());
+            }
+        }
+        parts.push(serde_json::Value::Object(record));
+    }
+    let mut kv: Vec<(String, String)> = first
+        .unwrap_or_default()
+        .into_iter()
+        .filter(|(k, _)| k != output::provenance::ENDED_KEY && k != MERGED_PARTS_KEY)
+        .collect();
+    kv.push(("mbmf_compacted_by".into(), command.to_string()));
+    kv.push((
+        "mbmf_compacted_utc".into(),
+        output::provenance::utc(std::time::SystemTime::now()),
+    ));
+    kv.push((
+        MERGED_PARTS_KEY.into(),
+        serde_json::Value::Array(parts).to_string(),
+    ));
+    Ok(kv)
+}
+
+/// The key-value metadata of a Parquet file, read from its footer alone.
+fn key_values(path: &Path) -> Result<Vec<(String, String)>, StoreError> {
+    use parquet::file::reader::{FileReader, SerializedFileReader};
+    let file = File::open(path).map_err(io("read", path))?;
+    let reader = SerializedFileReader::new(file).map_err(|e| StoreError::BadPart {
+        path: path.to_path_buf(),
+        reason: format!("cannot be read ({e})"),
+    })?;
+    Ok(reader
+        .metadata()
+        .file_metadata()
+        .key_value_metadata()
+        .map(|kv| {
+            kv.iter()
+                .map(|k| (k.key.clone(), k.value.clone().unwrap_or_default()))
+                .collect()
+        })
+        .unwrap_or_default())
 }
 
 /// What a reader finds committed in a sweep dataset folder, found without locking, writing or
