@@ -638,7 +638,42 @@ fn warnings(job: &Job) -> Vec<String> {
     if !job.spec.can_move() {
         warnings.push(format!("--{}", no_transition(&job.task)));
     }
+    if let Some(w) = stale_analyses(job) {
+        warnings.push(w);
+    }
     warnings
+}
+
+/// With `force` over earlier results, the analyses written beside them (`analysis/`), which
+/// the new results will not match: named, never removed (they are the user's to keep).
+fn stale_analyses(job: &Job) -> Option<String> {
+    if !job.force || !job.out.join("runs.parquet").is_file() {
+        return None;
+    }
+    let folder = crate::analysis::dataset::output_folder(&job.out);
+    let mut names: Vec<String> = std::fs::read_dir(&folder)
+        .ok()?
+        .filter_map(|e| e.ok())
+        .filter(|e| e.path().is_file())
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| !n.starts_with('.'))
+        .collect();
+    if names.is_empty() {
+        return None;
+    }
+    names.sort();
+    let shown = if names.len() > 3 {
+        format!("{}, ...", names[..3].join(", "))
+    } else {
+        names.join(", ")
+    };
+    Some(format!(
+        "--force replaces the results in {}, but {} keeps {} file(s) made from them ({shown}): \
+         they will describe the replaced runs until the analyses are run again",
+        job.out.display(),
+        folder.display(),
+        names.len()
+    ))
 }
 
 /// The warning for a task whose world has no transition (every action leaves every state as

@@ -53,8 +53,23 @@ fn a_second_run_into_the_same_folder_is_refused_naming_the_files_unless_forced()
         "{err}"
     );
     assert_eq!(committed(&out), before, "a refused run changes nothing");
+    // The analyses of the earlier results stay (they are the user's), named in a warning.
+    run_ok(&["stats", out.to_str().unwrap(), "--by", "controller"]);
+    run_ok(&["pareto", out.to_str().unwrap()]);
     let forced = run_into(&out, "2", &["--force"]);
     assert!(forced.status.success());
+    let err = String::from_utf8_lossy(&forced.stderr);
+    let analysis = out.join("analysis");
+    assert!(
+        err.contains("keeps 3 file(s) made from them (pareto.parquet, pareto.png, pareto.svg)")
+            && err.contains(&analysis.display().to_string()),
+        "{err}"
+    );
+    assert!(analysis.join("pareto.parquet").is_file());
+    // Without analyses, no warning.
+    std::fs::remove_dir_all(&analysis).unwrap();
+    let quiet = run_into(&out, "2", &["--force"]);
+    assert!(!String::from_utf8_lossy(&quiet.stderr).contains("warning"));
     let fresh = dir.path().join("fresh");
     assert!(run_into(&fresh, "2", &[]).status.success());
     assert_eq!(committed(&out), committed(&fresh));
