@@ -164,8 +164,8 @@ fn key_values(path: &Path) -> Vec<(String, String)> {
 }
 
 /// Parts written by two shards (two commands) merged into one file keep what told them apart:
-/// the file's provenance is the first part's, and `mbmf_merged_parts` records per part what
-/// differs from it; a second compaction nests the first's records.
+/// the keys on which they disagree say so at the top, and `mbmf_merged_parts` records each
+/// part's values of them. A dataset with nothing left to merge is not rewritten.
 #[test]
 fn compact_keeps_every_merged_parts_provenance() {
     let dir = tempfile::tempdir().unwrap();
@@ -193,38 +193,47 @@ fn compact_keeps_every_merged_parts_provenance() {
     }
     let before = parts(&out.join("runs"));
     assert_eq!(before.len(), 4, "{before:?}");
-    let commands: Vec<String> = before
+    let get = |kv: &[(String, String)], key: &str| {
+        kv.iter()
+            .find(|(k, _)| k == key)
+            .map(|(_, v)| v.clone())
+            .unwrap_or_else(|| panic!("no {key}"))
+    };
+    let originals: Vec<Vec<(String, String)>> = before
         .iter()
-        .map(|p| {
-            let kv = key_values(&out.join("runs").join(p));
-            kv.into_iter().find(|(k, _)| k == "mbmf_command").unwrap().1
-        })
+        .map(|p| key_values(&out.join("runs").join(p)))
         .collect();
+    let commands: Vec<String> = originals.iter().map(|kv| get(kv, "mbmf_command")).collect();
     assert!(commands.iter().any(|c| c.contains("--shard 0/2")));
     assert!(commands.iter().any(|c| c.contains("--shard 1/2")));
 
-    run_ok(&["compact", out.to_str().unwrap()]);
+    run_ok(&["compact", out.to_str().unwrap(), "--runs-per-file", "100"]);
     assert_eq!(parts(&out.join("runs")).len(), 1);
     for table in ["runs", "series"] {
-        let mut recorded = Vec::new();
-        for name in parts(&out.join(table)) {
-            let kv = key_values(&out.join(table).join(&name));
-            let merged = &kv.iter().find(|(k, _)| k == "mbmf_merged_parts").unwrap().1;
-            let merged: serde_json::Value = serde_json::from_str(merged).unwrap();
-            let own = &kv.iter().find(|(k, _)| k == "mbmf_command").unwrap().1;
-            for record in merged.as_array().unwrap() {
-                let part = record["part"].as_str().unwrap().to_owned();
-                // A part's command is the file's unless its record says otherwise.
-                let command = record["mbmf_command"].as_str().unwrap_or(own).to_owned();
-                assert!(record["mbmf_ended_utc"].is_string(), "{record}");
-                recorded.push((part, command));
-            }
-        }
-        // The file's own command is the first part's; the other shard's parts say theirs.
-        assert!(
-            recorded.iter().any(|(_, c)| c.contains("--shard 1/2")),
-            "{recorded:?}"
-        );
+        let name = &parts(&out.join(table))[0];
+        let kv = key_values(&out.join(table).join(name));
+        // What the shards disagree on is flagged, what they share is kept.
+        assert!(get(&kv, "mbmf_command").starts_with("(differs"), "{kv:?}");
+        assert!(get(&kv, "mbmf_shard").starts_with("(differs"), "{kv:?}");
+        assert_eq!(get(&kv, "mbmf_sweep_runs"), "8");
+        let starts: Vec<String> = originals
+            .iter()
+            .map(|kv| get(kv, "mbmf_started_utc"))
+            .collect();
+        assert_eq!(get(&kv, "mbmf_started_utc"), *starts.iter().min().unwrap());
+        assert!(get(&kv, "mbmf_compacted_by").contains("compact"));
+        let merged: serde_json::Value =
+            serde_json::from_str(&get(&kv, "mbmf_merged_parts")).unwrap();
+        let mut recorded: Vec<(String, String)> = merged
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|r| {
+                assert!(r["mbmf_ended_utc"].is_string(), "{r}");
+                let part = r["part"].as_str().unwrap().to_owned();
+                (part, r["mbmf_command"].as_str().unwrap().to_owned())
+            })
+            .collect();
         recorded.sort();
         let mut expected: Vec<(String, String)> = before
             .iter()
@@ -235,12 +244,13 @@ fn compact_keeps_every_merged_parts_provenance() {
         assert_eq!(recorded, expected, "{table}");
     }
 
-    // Compacted again (nothing left to merge, each file rewritten alone): the records nest.
-    run_ok(&["compact", out.to_str().unwrap()]);
-    let name = &parts(&out.join("runs"))[0];
-    let kv = key_values(&out.join("runs").join(name));
-    let merged = &kv.iter().find(|(k, _)| k == "mbmf_merged_parts").unwrap().1;
-    let merged: serde_json::Value = serde_json::from_str(merged).unwrap();
-    let inner = &merged[0]["mbmf_merged_parts"];
-    assert!(inner.as_array().is_some_and(|a| !a.is_empty()), "{merged}");
+    // Nothing left to merge: the file is left as it is.
+    let merged_file = out.join("runs").join(&parts(&out.join("runs"))[0]);
+    let bytes = std::fs::read(&merged_file).unwrap();
+    let again = run_ok(&["compact", out.to_str().unwrap()]);
+    assert!(
+        String::from_utf8_lossy(&again.stdout).contains("1 part"),
+        "{again:?}"
+    );
+    assert_eq!(std::fs::read(&merged_file).unwrap(), bytes);
 }

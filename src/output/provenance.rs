@@ -16,6 +16,9 @@ pub const PARETO_SCHEMA: &str = "pareto/1";
 /// Schema version of `mbmf min-budget`'s table.
 pub const MIN_BUDGET_SCHEMA: &str = "min_budget/1";
 
+/// Metadata key of the start time of the command that wrote a file.
+pub const STARTED_KEY: &str = "mbmf_started_utc";
+
 /// Metadata key of the end time, added when a file is closed.
 pub const ENDED_KEY: &str = "mbmf_ended_utc";
 
@@ -65,7 +68,7 @@ pub fn provenance(schema: &str, context: &Context<'_>) -> Vec<(String, String)> 
         ("mbmf_target".into(), env!("MBMF_TARGET").into()),
         ("mbmf_host".into(), host_name()),
         (
-            "mbmf_started_utc".into(),
+            STARTED_KEY.into(),
             utc(context.started.unwrap_or_else(SystemTime::now)),
         ),
         (

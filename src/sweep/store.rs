@@ -947,6 +947,33 @@ pub fn compact(dir: &Path, target_runs: u64, command: &str) -> Result<Compacted,
         let rows = batches.iter().map(|b| b.num_rows() as u64).sum();
         groups.entry(key).or_default().push((name.clone(), rows));
     }
+    // Cut each group every target_runs (a part larger than that stays whole).
+    let target = target_runs.max(1);
+    let mut chunks: Vec<Vec<&(String, u64)>> = Vec::new();
+    for parts in groups.values() {
+        let mut chunk: Vec<&(String, u64)> = Vec::new();
+        let mut runs_in_chunk = 0u64;
+        for part in parts {
+            if !chunk.is_empty() && runs_in_chunk + part.1 > target {
+                chunks.push(std::mem::take(&mut chunk));
+                runs_in_chunk = 0;
+            }
+            runs_in_chunk += part.1;
+            chunk.push(part);
+        }
+        if !chunk.is_empty() {
+            chunks.push(chunk);
+        }
+    }
+    // Nothing to merge: the dataset stays as it is (not rewritten, its provenance untouched).
+    if chunks.iter().all(|c| c.len() == 1) {
+        return Ok(Compacted {
+            runs: total,
+            parts_before: names.len(),
+            parts_after: names.len(),
+            strays: scan.strays,
+        });
+    }
     let parent = dir
         .parent()
         .filter(|p| !p.as_os_str().is_empty())
@@ -974,37 +1001,17 @@ pub fn compact(dir: &Path, target_runs: u64, command: &str) -> Result<Compacted,
             let to = staging.join(stray.strip_prefix(dir).unwrap_or(stray));
             fs::copy(stray, &to).map_err(io("write", &to))?;
         }
-        let mut parts_after = 0;
-        let target = target_runs.max(1);
-        for parts in groups.values() {
-            let mut chunk: Vec<&(String, u64)> = Vec::new();
-            let mut runs_in_chunk = 0u64;
-            let mut flush = |chunk: &mut Vec<&(String, u64)>| {
-                if chunk.is_empty() {
-                    return Ok::<(), StoreError>(());
-                }
-                let trace = traced.then_some(trace_dir.as_path());
-                write_merged(
-                    (&runs_dir, &series_dir, trace),
-                    &staging,
-                    chunk,
-                    total,
-                    command,
-                )?;
-                parts_after += 1;
-                chunk.clear();
-                Ok(())
-            };
-            for part in parts {
-                if !chunk.is_empty() && runs_in_chunk + part.1 > target {
-                    flush(&mut chunk)?;
-                    runs_in_chunk = 0;
-                }
-                runs_in_chunk += part.1;
-                chunk.push(part);
-            }
-            flush(&mut chunk)?;
+        let trace = traced.then_some(trace_dir.as_path());
+        for chunk in &chunks {
+            write_merged(
+                (&runs_dir, &series_dir, trace),
+                &staging,
+                chunk,
+                total,
+                command,
+            )?;
         }
+        let parts_after = chunks.len();
         // The copy must hold every run exactly once before it replaces the original.
         let check = self::scan(&staging, total, &|_| true)?;
         if check.done.len() != total || !check.leftovers.is_empty() {
@@ -1075,6 +1082,14 @@ fn write_merged(
         .map(|t| (t, TRACE_DIR))
         .into_iter()
         .chain([(series_dir, SERIES_DIR), (runs_dir, RUNS_DIR)]);
+    if let [(part, _)] = chunk {
+        // A part merged with nothing is kept as it is, provenance and all.
+        for (from, sub) in tables {
+            let to = staging.join(sub).join(&name);
+            fs::copy(from.join(part), &to).map_err(io("write", &to))?;
+        }
+        return Ok(());
+    }
     for (from, sub) in tables {
         let mut sink: Option<output::ParquetSink> = None;
         for (part, _) in chunk {
@@ -1098,48 +1113,93 @@ fn write_merged(
 }
 
 /// Metadata key of a merged file: per part merged into it, what of its provenance differs from
-/// the file's own (a JSON array of objects, each with the part's name under `part`).
+/// the first part's (a JSON array of objects, each with the part's name under `part`).
 pub const MERGED_PARTS_KEY: &str = "mbmf_merged_parts";
+/// Metadata key of a merged file: the command that merged it.
+pub const COMPACTED_BY_KEY: &str = "mbmf_compacted_by";
+/// Metadata key of a merged file: when it was merged.
+pub const COMPACTED_UTC_KEY: &str = "mbmf_compacted_utc";
+/// The value of a provenance key on which a merged file's parts disagree.
+pub const DIFFERS: &str = "(differs between the merged parts: see mbmf_merged_parts)";
 
-/// The provenance of a file merging `chunk`'s parts of the table in `from`: the first part's
-/// (less its end time), the compaction's own, and [`MERGED_PARTS_KEY`], so that parts written by
-/// other shards, hosts, commands or builds keep what tells them apart.
+/// The provenance of a file merging `chunk`'s parts of the table in `from`: the keys on which
+/// the parts agree as they are; a key on which they disagree (another shard's command, host,
+/// build) as [`DIFFERS`], or for the start time the earliest; the compaction's own keys; and
+/// [`MERGED_PARTS_KEY`] with, per part, its name, end time and values of the keys that differ
+/// (a part merged before nests its own records), so merging never hides which build wrote which
+/// runs.
 fn merged_provenance(
     chunk: &[&(String, u64)],
     from: &Path,
     command: &str,
 ) -> Result<Vec<(String, String)>, StoreError> {
-    let mut first: Option<Vec<(String, String)>> = None;
-    let mut parts = Vec::with_capacity(chunk.len());
+    // A merged file's own compaction keys and end time are replaced, not merged.
+    let own = [
+        output::provenance::ENDED_KEY,
+        MERGED_PARTS_KEY,
+        COMPACTED_BY_KEY,
+        COMPACTED_UTC_KEY,
+    ];
+    let mut all = Vec::with_capacity(chunk.len());
     for (part, _) in chunk {
-        let path = from.join(part);
-        let kv: Vec<(String, String)> = key_values(&path)?
+        let kv: Vec<(String, String)> = key_values(&from.join(part))?
             .into_iter()
             .filter(|(k, _)| k != "ARROW:schema")
             .collect();
-        let base = first.get_or_insert_with(|| kv.clone());
-        let mut record = serde_json::Map::new();
-        record.insert("part".into(), part.clone().into());
-        for (k, v) in &kv {
-            let same = base.iter().any(|(bk, bv)| bk == k && bv == v);
-            if k == MERGED_PARTS_KEY {
-                // A part merged before keeps its own record, nested.
-                let nested = serde_json::from_str(v).unwrap_or_else(|_| v.clone().into());
-                record.insert(k.clone(), nested);
-            } else if !same || k == output::provenance::ENDED_KEY {
-                record.insert(k.clone(), v.clone().into());
+        all.push((part, kv));
+    }
+    let value = |kv: &[(String, String)], key: &str| {
+        kv.iter().find(|(k, _)| k == key).map(|(_, v)| v.clone())
+    };
+    // Every key of any part, in the first part's order, then the others'.
+    let mut keys: Vec<String> = Vec::new();
+    for (_, kv) in &all {
+        for (k, _) in kv {
+            if !own.contains(&k.as_str()) && !keys.contains(k) {
+                keys.push(k.clone());
             }
+        }
+    }
+    let differs = |key: &str| {
+        let first = value(&all[0].1, key);
+        all.iter().any(|(_, kv)| value(kv, key) != first)
+    };
+    let differing: Vec<&String> = keys.iter().filter(|k| differs(k)).collect();
+    let mut kv: Vec<(String, String)> = Vec::new();
+    for key in &keys {
+        let merged = if !differing.contains(&key) {
+            value(&all[0].1, key)
+        } else if key == output::provenance::STARTED_KEY {
+            all.iter().filter_map(|(_, kv)| value(kv, key)).min()
+        } else {
+            Some(DIFFERS.to_string())
+        };
+        if let Some(v) = merged {
+            kv.push((key.clone(), v));
+        }
+    }
+    let mut parts = Vec::with_capacity(all.len());
+    for (part, part_kv) in &all {
+        let mut record = serde_json::Map::new();
+        record.insert("part".into(), part.to_string().into());
+        for key in differing
+            .iter()
+            .map(|k| k.as_str())
+            .chain([output::provenance::ENDED_KEY])
+        {
+            if let Some(v) = value(part_kv, key) {
+                record.insert(key.to_string(), v.into());
+            }
+        }
+        if let Some(v) = value(part_kv, MERGED_PARTS_KEY) {
+            let nested = serde_json::from_str(&v).unwrap_or_else(|_| v.into());
+            record.insert(MERGED_PARTS_KEY.to_string(), nested);
         }
         parts.push(serde_json::Value::Object(record));
     }
-    let mut kv: Vec<(String, String)> = first
-        .unwrap_or_default()
-        .into_iter()
-        .filter(|(k, _)| k != output::provenance::ENDED_KEY && k != MERGED_PARTS_KEY)
-        .collect();
-    kv.push(("mbmf_compacted_by".into(), command.to_string()));
+    kv.push((COMPACTED_BY_KEY.into(), command.to_string()));
     kv.push((
-        "mbmf_compacted_utc".into(),
+        COMPACTED_UTC_KEY.into(),
         output::provenance::utc(std::time::SystemTime::now()),
     ));
     kv.push((
