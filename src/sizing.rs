@@ -19,9 +19,9 @@ pub const RUN_ROW_DISK_BYTES: u64 = 128;
 /// the same sweeps (5.5 B in a tidy1 file of one configuration).
 pub const SERIES_ROW_DISK_BYTES: u64 = 16;
 /// Bytes a step's row takes in trace.parquet, compressed: measured 1.5 B on tidy1 (`ec`, 10,000
-/// steps), 2.5 B in `sweeps/arbitration-tidy.toml` and 0.6 B on twostep, rounded up for larger
+/// steps), 2.5 B in `sweeps/arbitration-tidy.toml` and 1.3 B on twostep, rounded up for larger
 /// worlds (`docs/guide/trace.md`).
-pub const TRACE_ROW_DISK_BYTES: u64 = 4;
+pub const TRACE_ROW_DISK_BYTES: u64 = 3;
 /// Bytes of a runs file (a part of a sweep) beyond its rows: the footer (the Arrow schema with
 /// every column's description, the provenance) and the column chunks' headers, measured 31 KB of
 /// footer and 38 KB for a file of 6 rows.
@@ -418,12 +418,12 @@ mod tests {
         size.add(2, &params, true);
         assert_eq!(size.trace_rows, 2000);
         let files = files + (10 << 10);
-        assert_eq!(size.output_bytes(), 5 * 128 + 20 * 16 + 2000 * 4 + files);
+        assert_eq!(size.output_bytes(), 5 * 128 + 20 * 16 + 2000 * 3 + files);
         // A sweep writes a runs, series and trace file per part.
         size.parts = 3;
         assert_eq!(
             size.output_bytes(),
-            5 * 128 + 20 * 16 + 2000 * 4 + 3 * files
+            5 * 128 + 20 * 16 + 2000 * 3 + 3 * files
         );
         assert!(
             size.line()

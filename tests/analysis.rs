@@ -245,7 +245,7 @@ fn pareto_objectives_can_be_any_numeric_columns() {
     ]);
     // Named by its objectives: another choice of them writes another file.
     let table =
-        dataset::read_parquet_file(&out.join("pareto-total_reward_max-cost_total_min.parquet"))
+        dataset::read_parquet_file(&out.join("pareto-total_reward.max-cost_total.min.parquet"))
             .unwrap();
     let kappa = floats(&table, "kappa_coeff");
     let front = bools(&table, "front");

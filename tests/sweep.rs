@@ -371,7 +371,10 @@ fn the_dry_run_counts_the_parts_and_estimates_the_bytes_the_sweep_writes() {
     let estimate = plan["estimated_output_bytes"].as_f64().unwrap();
     let text = run_ok(&["sweep", &file, "--dry-run", "--batch-size", "5"]);
     let text = String::from_utf8_lossy(&text.stdout);
-    assert!(text.contains("; 4 part(s) of at most 5 runs)"), "{text}");
+    assert!(
+        text.contains("; 4 part(s) per table of at most 5 runs)"),
+        "{text}"
+    );
     run_ok(&[
         "sweep",
         &file,
@@ -382,6 +385,22 @@ fn the_dry_run_counts_the_parts_and_estimates_the_bytes_the_sweep_writes() {
         "5",
     ]);
     assert_eq!(parts(&out_dir, "runs").len(), 4);
+    // A dry run of the resume counts what is there.
+    let o = out_dir.to_str().unwrap();
+    let again = run_ok(&[
+        "sweep",
+        &file,
+        "--out",
+        o,
+        "--resume",
+        "--dry-run",
+        "--json",
+    ]);
+    let again: serde_json::Value = serde_json::from_slice(&again.stdout).unwrap();
+    assert_eq!(
+        (&again["already_written"], &again["runs"]),
+        (&12.into(), &12.into())
+    );
     let written: u64 = ["runs", "series"]
         .iter()
         .flat_map(|t| std::fs::read_dir(out_dir.join(t)).unwrap())

@@ -53,7 +53,7 @@ def test_pareto_equals_the_command_line(dataset, tmp_path, mbmf_bin, options) ->
     cli = _cli(mbmf_bin, *args)
     # The table's name says what was analysed (the defaults: pareto.parquet).
     (path,) = cli["files"]
-    name = "pareto" + "".join(f"-{o.replace(':', '_')}" for o in options.get("objectives", "").split(",") if o)
+    name = "pareto" + "".join(f"-{o.replace(':', '.')}" for o in options.get("objectives", "").split(",") if o)
     name += "".join(f"-by-{b}" for b in options.get("by", []))
     assert path == str(tmp_path / f"{name}.parquet")
     written = pq.read_table(path)

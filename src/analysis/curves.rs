@@ -338,9 +338,9 @@ impl Curves {
 }
 
 /// The figure's file name (no extension): `METRIC-by-BY`, then each filter as
-/// `-COLUMN-VALUE` with characters other than letters, digits, `.` and `_` replaced by `_`;
-/// a name longer than 96 characters is cut and ends with a hash of the whole, so distinct
-/// filters never share a file.
+/// `-COLUMN-VALUE` with characters other than letters, digits, `.`, `_` and `-` replaced by
+/// `_` and then a short hash of the whole added; a name longer than 96 characters is cut and
+/// ends with a hash of the whole, so distinct filters never share a file.
 pub fn figure_name(metric: CurveMetric, by: &str, filters: &[Filter]) -> String {
     safe_name(&format!("{}-by-{by}", metric.column()), filters)
 }
@@ -373,12 +373,16 @@ fn safe_name(stem: &str, filters: &[Filter]) -> String {
             }
         })
         .collect();
+    let hash = name.bytes().fold(0xcbf2_9ce4_8422_2325_u64, |h, b| {
+        (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
+    });
     if clean.len() > 96 {
-        let hash = name.bytes().fold(0xcbf2_9ce4_8422_2325_u64, |h, b| {
-            (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
-        });
         clean.truncate(80);
         clean.push_str(&format!("-{hash:016x}"));
+    } else if clean != name {
+        // Replaced characters could make two names one (`my grid` and `my_grid`): a hash of
+        // the whole keeps them apart.
+        clean.push_str(&format!("-{:08x}", hash >> 32));
     }
     clean
 }
@@ -743,6 +747,14 @@ mod tests {
                 ))],
             )
         };
+        // Values that clean to the same text keep distinct names.
+        let task = |t: &str| output_name("pareto", &[], &[f(&format!("task=json:w/{t}/g.json"))]);
+        assert_ne!(task("my grid"), task("my_grid"));
+        assert!(task("my grid").starts_with("pareto-task-json_w_my_grid_g.json-"));
+        assert_eq!(
+            output_name("pareto", &["a".into(), "b".into()], &[]),
+            "pareto-by-a-b"
+        );
         assert!(long("34").len() <= 97, "{}", long("34"));
         assert!(!long("34").contains('/') && !long("34").contains(':'));
         assert_ne!(long("34"), long("35"));

@@ -122,8 +122,8 @@ pub struct MinBudgetArgs {
     #[arg(long, default_value_t = DEFAULT_ALPHA, value_parser = super::args::number, allow_hyphen_values = true)]
     pub alpha: f64,
     /// Folder for min_budget.parquet (default: analysis/ in the dataset's folder). Another
-    /// --metric or --where names another file (min_budget-reward_last10.parquet,
-    /// min_budget-interaction-takeover.parquet).
+    /// --metric, --alpha or --where names another file (min_budget-reward_last10.parquet,
+    /// min_budget-alpha-0.01.parquet, min_budget-interaction-takeover.parquet).
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Also print every budget of every group (mean, sd, the budgets that beat it).
@@ -243,7 +243,11 @@ pub fn pareto(args: &ParetoArgs) -> Result<(), Failure> {
     // the whole dataset, `pareto-by-interaction-controller-ec.parquet` for another question.
     let stem = match &args.objectives {
         Some(objectives) => {
-            let names: Vec<String> = objectives.iter().map(ToString::to_string).collect();
+            // NAME.max: a name with no character replaced, so no hash (output_name).
+            let names: Vec<String> = objectives
+                .iter()
+                .map(|o| o.to_string().replace(':', "."))
+                .collect();
             format!("pareto-{}", names.join("-"))
         }
         None => "pareto".to_owned(),
@@ -858,11 +862,14 @@ pub fn min_budget(args: &MinBudgetArgs) -> Result<(), Failure> {
         print_min_budget(&result, args.levels);
     }
     // Named by the metric when not the default, and by the runs kept.
-    let stem = if args.metric == "total_reward" {
+    let mut stem = if args.metric == "total_reward" {
         "min_budget".to_owned()
     } else {
         format!("min_budget-{}", args.metric)
     };
+    if args.alpha != DEFAULT_ALPHA {
+        stem += &format!("-alpha-{}", args.alpha);
+    }
     let name = curves::output_name(&stem, &[], &args.data.filters);
     let path = write_table(
         &result.to_table(),

@@ -131,8 +131,8 @@ pub fn command(args: &SweepArgs) -> Result<(), Failure> {
         };
         let estimate = format!(
             "estimated time: {time} with {} thread(s) (timed on {} sample run(s) in {:.1} s)\n\
-             estimated output: about {} ({} runs rows, {}{} series rows{}; {}{} part(s) of at most \
-             {} runs)",
+             estimated output: about {} ({} runs rows, {}{} series rows{}; {}{} part(s) per table of at \
+             most {} runs)",
             e.threads,
             e.samples,
             e.calibration_seconds,
@@ -150,6 +150,13 @@ pub fn command(args: &SweepArgs) -> Result<(), Failure> {
             args.batch_size,
         );
         if args.dry_run {
+            // With --resume, what is already written is left out of the run (the estimates
+            // above are the whole shard's, as the disk check counts the files there as its own).
+            let written = if args.resume {
+                runner::already_written(&sweep, shard, &out).map_err(usage)?
+            } else {
+                0
+            };
             if args.json {
                 // u128 counts as numbers where JSON's doubles hold them exactly, else as text.
                 let count = |n: u128| match u64::try_from(n) {
@@ -162,6 +169,7 @@ pub fn command(args: &SweepArgs) -> Result<(), Failure> {
                     "file": args.file.display().to_string(),
                     "shard": shard.to_string(),
                     "configurations": sweep.configurations(),
+                    "shard_configurations": shard.count_of(sweep.configurations()),
                     "seeds": sweep.seeds,
                     "master_seed": sweep.master_seed,
                     "runs": count(size.runs),
@@ -173,6 +181,7 @@ pub fn command(args: &SweepArgs) -> Result<(), Failure> {
                     "parts": count(size.parts),
                     "series_rows": count(size.series_rows),
                     "trace_rows": count(size.trace_rows),
+                    "already_written": written,
                     "warnings": sweep.warnings,
                 });
                 outln!("{json}");
@@ -183,6 +192,15 @@ pub fn command(args: &SweepArgs) -> Result<(), Failure> {
                     if size.exact { "" } else { "about " },
                     e.agent_steps
                 );
+                if args.resume {
+                    outln!(
+                        "already written in {}: {written} of these {} runs; --resume runs the \
+                         other {} (the estimates above are for all of them)",
+                        out.display(),
+                        size.runs,
+                        size.runs.saturating_sub(u128::from(written))
+                    );
+                }
             }
             if let Err(refusal) = sizing::check_time(&e, &shrink) {
                 return Err(usage(anyhow!("{}: {refusal}", args.file.display())));
@@ -356,12 +374,23 @@ pub fn compact(args: &CompactArgs) -> Result<(), Failure> {
     for stray in &done.strays {
         eprintln!("warning: {}", store::stray_warning(stray));
     }
-    outln!(
-        "{}: {} runs in {} part(s) per table, {} before",
-        args.dir.display(),
-        done.runs,
-        done.parts_after,
-        done.parts_before
-    );
+    if done.parts_after == done.parts_before {
+        outln!(
+            "{}: {} runs in {} part(s) per table: nothing to merge (at most {} runs per file, \
+             parts of other text parameters kept apart), left as it was",
+            args.dir.display(),
+            done.runs,
+            done.parts_after,
+            args.runs_per_file
+        );
+    } else {
+        outln!(
+            "{}: {} runs in {} part(s) per table, {} before",
+            args.dir.display(),
+            done.runs,
+            done.parts_after,
+            done.parts_before
+        );
+    }
     Ok(())
 }

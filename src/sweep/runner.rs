@@ -302,6 +302,21 @@ fn missing_runs(done: &store::RunSet, config: u64, seeds: u64) -> u64 {
     (0..seeds).filter(|s| !done.contains(first + s)).count() as u64
 }
 
+/// Runs of `shard` already committed in `out` (0 when it holds no dataset): what a `--resume`
+/// would not run again. Reads the parts' run indices without locking, writing or deleting.
+pub fn already_written(sweep: &Sweep, shard: Shard, out: &Path) -> Result<u64, StoreError> {
+    if !out.join(store::RUNS_DIR).is_dir() {
+        return Ok(0);
+    }
+    let seeds = u64::from(sweep.seeds);
+    let owned = |first_run: u64| shard.owns(first_run / seeds);
+    let scan = store::scan(out, sweep.runs(), &owned)?;
+    Ok(shard
+        .configs(sweep.configurations())
+        .map(|config| seeds - missing_runs(&scan.done, config, seeds))
+        .sum())
+}
+
 /// Runs `sweep` (the shard of `options`) into `options.out`, telling `events` what happens.
 /// Once `stop` is set, the run ends within one simulation stride with
 /// [`RunError::Interrupted`], its lock released and no temporary file left.
