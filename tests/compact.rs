@@ -147,22 +147,6 @@ fn compact_refuses_an_incomplete_a_locked_and_a_foreign_folder() {
     assert!(String::from_utf8_lossy(&e.stderr).contains("not a sweep dataset"));
 }
 
-/// The metadata of a Parquet file, as (key, value) pairs.
-fn key_values(path: &Path) -> Vec<(String, String)> {
-    use parquet::file::reader::FileReader;
-    let reader =
-        parquet::file::reader::SerializedFileReader::new(std::fs::File::open(path).unwrap())
-            .unwrap();
-    reader
-        .metadata()
-        .file_metadata()
-        .key_value_metadata()
-        .unwrap()
-        .iter()
-        .map(|k| (k.key.clone(), k.value.clone().unwrap_or_default()))
-        .collect()
-}
-
 /// Parts written by two shards (two commands) merged into one file keep what told them apart:
 /// the keys on which they disagree say so at the top, and `mbmf_merged_parts` records each
 /// part's values of them. A dataset with nothing left to merge is not rewritten.

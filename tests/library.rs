@@ -27,19 +27,6 @@ fn job(out: &Path) -> Job {
 /// The columns of a file whose values depend on when and how it was written, not on the runs.
 const ABOUT_THE_WRITING: &[&str] = &["wall_time_s"];
 
-fn metadata(file: &Path) -> Vec<(String, String)> {
-    use parquet::file::reader::{FileReader, SerializedFileReader};
-    let reader = SerializedFileReader::new(std::fs::File::open(file).unwrap()).unwrap();
-    reader
-        .metadata()
-        .file_metadata()
-        .key_value_metadata()
-        .unwrap()
-        .iter()
-        .map(|kv| (kv.key.clone(), kv.value.clone().unwrap_or_default()))
-        .collect()
-}
-
 #[test]
 fn the_library_entry_writes_the_rows_the_command_line_writes() {
     let dir = tempfile::tempdir().unwrap();
@@ -102,12 +89,12 @@ fn the_library_entry_writes_the_rows_the_command_line_writes() {
     let mean = ec.iter().sum::<f64>() / ec.len() as f64;
     assert!((done.rows[0].reward.0 - mean).abs() < 1e-9 * mean.abs().max(1.0));
     // The provenance records the command the front end gave, and both files share a run id.
-    let kv = metadata(&done.files[0]);
+    let kv = key_values(&done.files[0]);
     let get = |kv: &[(String, String)], k: &str| {
         kv.iter().find(|(key, _)| key == k).map(|(_, v)| v.clone())
     };
     assert_eq!(get(&kv, "mbmf_command").as_deref(), Some("a library test"));
-    let series_kv = metadata(&done.files[1]);
+    let series_kv = key_values(&done.files[1]);
     assert!(get(&kv, "mbmf_run_id").is_some());
     assert_eq!(get(&kv, "mbmf_run_id"), get(&series_kv, "mbmf_run_id"));
 }

@@ -830,16 +830,7 @@ fn read_all(path: &Path) -> Result<PartContents, StoreError> {
     };
     let file = File::open(path).map_err(io("read", path))?;
     let builder = ParquetRecordBatchReaderBuilder::try_new(file).map_err(|e| bad(e.to_string()))?;
-    let kv = builder
-        .metadata()
-        .file_metadata()
-        .key_value_metadata()
-        .map(|kv| {
-            kv.iter()
-                .map(|k| (k.key.clone(), k.value.clone().unwrap_or_default()))
-                .collect()
-        })
-        .unwrap_or_default();
+    let kv = pairs(builder.metadata().file_metadata());
     let reader = builder.build().map_err(|e| bad(e.to_string()))?;
     let batches = reader
         .collect::<Result<Vec<_>, _>>()
@@ -1217,16 +1208,19 @@ fn key_values(path: &Path) -> Result<Vec<(String, String)>, StoreError> {
         path: path.to_path_buf(),
         reason: format!("cannot be read ({e})"),
     })?;
-    Ok(reader
-        .metadata()
-        .file_metadata()
+    Ok(pairs(reader.metadata().file_metadata()))
+}
+
+/// A file's key-value metadata as (key, value) pairs (a key without value: empty).
+fn pairs(metadata: &parquet::file::metadata::FileMetaData) -> Vec<(String, String)> {
+    metadata
         .key_value_metadata()
         .map(|kv| {
             kv.iter()
                 .map(|k| (k.key.clone(), k.value.clone().unwrap_or_default()))
                 .collect()
         })
-        .unwrap_or_default())
+        .unwrap_or_default()
 }
 
 /// What a reader finds committed in a sweep dataset folder, found without locking, writing or

@@ -447,3 +447,17 @@ pub fn serve(args: &[&str]) -> Served {
         .to_owned();
     Served { child, addr }
 }
+
+/// The key-value metadata of a Parquet file (its provenance), as (key, value) pairs.
+pub fn key_values(path: &Path) -> Vec<(String, String)> {
+    use parquet::file::reader::{FileReader, SerializedFileReader};
+    let reader = SerializedFileReader::new(std::fs::File::open(path).unwrap()).unwrap();
+    reader
+        .metadata()
+        .file_metadata()
+        .key_value_metadata()
+        .unwrap()
+        .iter()
+        .map(|kv| (kv.key.clone(), kv.value.clone().unwrap_or_default()))
+        .collect()
+}
