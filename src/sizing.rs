@@ -275,22 +275,6 @@ pub fn nearest_existing(path: &Path) -> Option<&Path> {
         .find(|a| a.exists())
 }
 
-/// Bytes of the files under `dir` (recursively; 0 if it does not exist): results a job will
-/// replace or extend, counted as free space.
-pub fn bytes_under(dir: &Path) -> u64 {
-    let Ok(entries) = std::fs::read_dir(dir) else {
-        return 0;
-    };
-    entries
-        .flatten()
-        .map(|e| match e.file_type() {
-            Ok(t) if t.is_dir() => bytes_under(&e.path()),
-            Ok(t) if t.is_file() => e.metadata().map_or(0, |m| m.len()),
-            _ => 0,
-        })
-        .sum()
-}
-
 /// A rough duration of a job on this machine, from simulating a few sample runs.
 #[derive(Debug, Clone)]
 pub struct Estimate {

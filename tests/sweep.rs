@@ -852,6 +852,44 @@ fn a_full_disk_fails_with_a_clear_error_and_leaves_no_partial_file() {
     assert!(runs.len() < 20, "the disk should have filled up");
 }
 
+/// A resumed shard counts its own parts as free space (its size includes them), never another
+/// shard's, which stay: shard 1 beside shard 0 on a small disk is refused before it starts
+/// rather than filling the disk.
+#[test]
+fn a_resumed_shard_counts_only_its_own_parts_as_free_space() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = write_sweep(dir.path(), "small.toml", SMALL);
+    let mount = match Mount::tmpfs("size=200k") {
+        Ok(m) => m,
+        Err(e) => {
+            eprintln!(
+                "SKIP a_resumed_shard_counts_only_its_own_parts_as_free_space: cannot mount a \
+                 tmpfs ({e}); this needs root (CAP_SYS_ADMIN)"
+            );
+            return;
+        }
+    };
+    let out = mount.0.join("dataset");
+    let o = out.to_str().unwrap();
+    run_ok(&["sweep", &file, "--out", o, "--quiet", "--shard", "0/2"]);
+    let before = parts(&out, "runs");
+    let sweep = Sweep::load(Path::new(&file)).unwrap();
+    let seeds = u64::from(sweep.seeds);
+    let half = |i| Shard { index: i, count: 2 };
+    let own = mbmf::sweep::store::shard_bytes(&out, seeds, half(0));
+    assert!(own > 100_000, "{own}");
+    assert_eq!(mbmf::sweep::store::shard_bytes(&out, seeds, half(1)), 0);
+    let refused = run(&["sweep", &file, "--out", o, "--shard", "1/2", "--resume"]);
+    let err = String::from_utf8_lossy(&refused.stderr);
+    assert_eq!(refused.status.code(), Some(2), "{err}");
+    assert!(err.contains("would take about"), "{err}");
+    assert_eq!(parts(&out, "runs"), before);
+    // Resuming shard 0 itself counts its parts: nothing is left to run, and it is not refused.
+    run_ok(&[
+        "sweep", &file, "--out", o, "--quiet", "--shard", "0/2", "--resume",
+    ]);
+}
+
 #[test]
 fn shipped_sweeps_are_valid_and_say_what_they_answer() {
     let mut found = 0;

@@ -1933,7 +1933,8 @@ impl Sweep {
 
     /// Sizes `shard` ([`Sweep::size`]) and refuses it, before anything is loaded, when its runs
     /// cannot be indexed or its results would not fit on the disk of `out`; with `resume`, the
-    /// results already in `out` count as free space. The check of every front end.
+    /// shard's parts already in `out` count as free space (they are part of its size). The
+    /// check of every front end.
     pub fn check_size(
         &self,
         shard: Shard,
@@ -1942,7 +1943,11 @@ impl Sweep {
         resume: bool,
     ) -> Result<Size, SizeError> {
         let size = self.size(shard, batch_size);
-        let credit = if resume { sizing::bytes_under(out) } else { 0 };
+        let credit = if resume {
+            super::store::shard_bytes(out, u64::from(self.seeds), shard)
+        } else {
+            0
+        };
         sizing::check_size(&size, out, credit, &self.shrink())?;
         Ok(size)
     }

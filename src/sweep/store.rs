@@ -181,6 +181,27 @@ fn part_first(name: &str) -> Option<(u64, bool)> {
     Some((first, committed))
 }
 
+/// Bytes of the committed part files in `dir` (every table) whose first run belongs to `shard`
+/// of a sweep of `seeds` runs per configuration: the results a resume of that shard keeps, which
+/// the size of the whole shard counts. Other shards' parts are not this shard's to count.
+pub fn shard_bytes(dir: &Path, seeds: u64, shard: Shard) -> u64 {
+    let mut bytes = 0;
+    for sub in [RUNS_DIR, SERIES_DIR, TRACE_DIR] {
+        let Ok(entries) = fs::read_dir(dir.join(sub)) else {
+            continue;
+        };
+        for entry in entries.flatten() {
+            let name = entry.file_name().to_string_lossy().into_owned();
+            if let Some((first, true)) = part_first(&name)
+                && shard.owns(first / seeds.max(1))
+            {
+                bytes += entry.metadata().map_or(0, |m| m.len());
+            }
+        }
+    }
+    bytes
+}
+
 /// The temporary name [`output::ParquetSink`] writes `name` under.
 fn sink_tmp_name(name: &str) -> String {
     format!(".{name}.tmp-{}", std::process::id())
