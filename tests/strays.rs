@@ -91,8 +91,9 @@ fn a_part_copied_under_another_part_name_is_refused_naming_both_files() {
         );
     };
 
+    // A part that is not what it should be is the input's fault in every verb (exit 2).
     let resume = run(&["sweep", &file, "--out", o, "--resume"]);
-    assert_eq!(resume.status.code(), Some(1), "{}", text(&resume));
+    assert_eq!(resume.status.code(), Some(2), "{}", text(&resume));
     names_both(&resume);
 
     let compact = run(&["compact", o]);

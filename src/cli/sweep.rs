@@ -365,12 +365,10 @@ pub fn compact(args: &CompactArgs) -> Result<(), Failure> {
             "--runs-per-file 0: give at least 1 run per file"
         )));
     }
-    let done = store::compact(&args.dir, args.runs_per_file, &super::command_line()).map_err(
-        |e| match &e {
-            store::StoreError::Io { .. } | store::StoreError::Output(_) => runtime(e),
-            _ => usage(e),
-        },
-    )?;
+    // As sweep --resume: a bad folder or part is the input's fault (2), a live writer or a
+    // failed write is not (1).
+    let done = store::compact(&args.dir, args.runs_per_file, &super::command_line())
+        .map_err(|e| if e.is_usage() { usage(e) } else { runtime(e) })?;
     for stray in &done.strays {
         eprintln!("warning: {}", store::stray_warning(stray));
     }

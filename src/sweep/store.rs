@@ -151,6 +151,7 @@ impl StoreError {
                 | StoreError::NotADataset { .. }
                 | StoreError::AlreadyStarted { .. }
                 | StoreError::UntracedParts { .. }
+                | StoreError::BadPart { .. }
         )
     }
 }
