@@ -56,6 +56,8 @@ pub struct Size {
     pub trace_rows: u128,
     /// Files written per table: 1 for `mbmf run`, a sweep's parts.
     pub parts: u128,
+    /// False when the parts were estimated from a sample of the configurations.
+    pub parts_exact: bool,
     /// False when the counts were extrapolated from a sample of the configurations (a shard of
     /// a huge grid): then they are estimates.
     pub exact: bool,
@@ -69,6 +71,7 @@ impl Default for Size {
             series_rows: 0,
             trace_rows: 0,
             parts: 1,
+            parts_exact: true,
             exact: true,
         }
     }

@@ -1057,9 +1057,9 @@ fn a_sweep_is_sized_by_arithmetic_exactly_as_by_enumeration() {
     // Rows: checkpoint 0 none; checkpoint 10 gives 1 (10 steps) and 3 (25 steps).
     assert_eq!(size.series_rows, n * (1 + 3));
     // One kind of run, so parts of 85 configurations (255 runs: the 86th would not fit): 4,706
-    // parts when enumerated; the four axes' combinations, each standing for 300,000 runs, give
-    // 4 x 1,172.
-    assert_eq!(size.parts, 4 * 1172);
+    // parts, counted in closed form from the samples (and so not called exact).
+    assert_eq!(size.parts, 4706);
+    assert!(!size.parts_exact);
     // A shard of it is estimated from the same axes, in proportion.
     let half = sweep.size(Shard { index: 1, count: 2 }, 256);
     assert_eq!(half.runs, 2 * n);
@@ -1069,5 +1069,27 @@ fn a_sweep_is_sized_by_arithmetic_exactly_as_by_enumeration() {
     let size = small.size(Shard::ALL, 256);
     assert_eq!((size.runs, size.agent_steps, size.series_rows), (4, 90, 4));
     assert_eq!(size.parts, 1);
-    assert_eq!(small.size(Shard::ALL, 3).parts, 2);
+    assert!(size.parts_exact);
+    // The parts are those the runner plans, for any batch size: configurations of several
+    // seeds sharing a kind of run close a batch before one that would not fit.
+    let mixed =
+        parse("seeds = 3\n[grid]\nkappa_coeff = [0, 1, 2, 3, 4]\ncontroller = [\"mf\", \"ec\"]\n");
+    let none = mbmf::sweep::store::RunSet::new(mixed.runs());
+    for batch in [1, 2, 3, 4, 5, 6, 7, 9, 13, 256] {
+        let mut planned = 0u128;
+        mbmf::sweep::runner::plan(&mixed, Shard::ALL, &none, batch, |_, _| {
+            planned += 1;
+            Ok::<(), ()>(())
+        })
+        .unwrap();
+        assert_eq!(
+            mixed.size(Shard::ALL, batch).parts,
+            planned,
+            "batch {batch}"
+        );
+    }
+    // Five configurations of 3 runs per controller: one a part at 5, two at 6, all at 15.
+    assert_eq!(mixed.size(Shard::ALL, 5).parts, 10);
+    assert_eq!(mixed.size(Shard::ALL, 6).parts, 6);
+    assert_eq!(mixed.size(Shard::ALL, 15).parts, 2);
 }

@@ -145,7 +145,7 @@ pub fn command(args: &SweepArgs) -> Result<(), Failure> {
             } else {
                 String::new()
             },
-            if size.exact { "" } else { "at least " },
+            if size.parts_exact { "" } else { "about " },
             size.parts,
             args.batch_size,
         );
@@ -179,6 +179,7 @@ pub fn command(args: &SweepArgs) -> Result<(), Failure> {
                     "threads": e.threads,
                     "estimated_output_bytes": count(size.output_bytes()),
                     "parts": count(size.parts),
+                    "parts_exact": size.parts_exact,
                     "series_rows": count(size.series_rows),
                     "trace_rows": count(size.trace_rows),
                     "already_written": written,

@@ -1905,7 +1905,9 @@ impl Sweep {
 
     /// The runs, agent-steps, series rows and parts (of `batch_size` runs at most) of `shard`,
     /// counted without enumerating a large grid (see [`Sweep::representatives`]). The parts are
-    /// a lower bound: a batch too large for memory is split further when the sweep starts.
+    /// a lower bound: a batch too large for memory is split further when the sweep starts; and
+    /// on a grid too large to enumerate they are estimated from the sampled configurations'
+    /// kinds of run ([`Size::parts_exact`] false).
     pub fn size(&self, shard: Shard, batch_size: usize) -> Size {
         let keys = [
             Key::Task,
@@ -1916,13 +1918,22 @@ impl Sweep {
         let reps = self.representatives(shard, &keys, SIZE_ENUMERATE_LIMIT);
         let mut size = Size::default();
         let mut parts = PartCount::default();
+        let seeds = u128::from(self.seeds);
+        // Listed one by one, configurations are batched as `plan` does; a sample standing for
+        // many is counted in closed form, its kind of run standing for theirs.
+        let listed = reps.configs.iter().all(|&(_, weight)| weight == 1);
         for &(config, weight) in &reps.configs {
             let resolved = self.resolve(config);
-            let runs = weight * u128::from(self.seeds);
-            size.add(runs, &resolved.params, self.trace);
-            parts.add(PartKey::of(&resolved), runs, batch_size);
+            size.add(weight * seeds, &resolved.params, self.trace);
+            if listed {
+                parts.add(PartKey::of(&resolved), seeds, batch_size);
+            } else {
+                parts.add_many(PartKey::of(&resolved), weight, seeds);
+            }
         }
-        size.parts = parts.parts();
+        size.parts = parts.parts(batch_size);
+        size.parts_exact =
+            listed && reps.configs.len() as u64 == shard.count_of(self.configurations);
         if reps.exact {
             // The run count is known exactly whatever was sampled.
             size.runs = u128::from(shard.count_of(self.configurations)) * u128::from(self.seeds);

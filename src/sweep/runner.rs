@@ -227,6 +227,8 @@ impl PartKey {
 pub struct PartCount {
     pending: std::collections::BTreeMap<PartKey, u128>,
     closed: u128,
+    /// Configurations added in bulk, per key, of `seeds` runs each ([`PartCount::add_many`]).
+    bulk: std::collections::BTreeMap<(PartKey, u128), u128>,
 }
 
 impl PartCount {
@@ -244,9 +246,30 @@ impl PartCount {
         *open %= batch;
     }
 
-    /// The parts, once every configuration was added.
-    pub fn parts(&self) -> u128 {
-        self.closed + self.pending.values().filter(|&&n| n > 0).count() as u128
+    /// Adds `configs` configurations of `seeds` runs each with `key` (a sample standing for
+    /// many), counted in closed form once every one is added.
+    pub fn add_many(&mut self, key: PartKey, configs: u128, seeds: u128) {
+        *self.bulk.entry((key, seeds)).or_default() += configs;
+    }
+
+    /// The parts, once every configuration was added, in batches of at most `batch_size`.
+    pub fn parts(&self, batch_size: usize) -> u128 {
+        let batch = (batch_size as u128).max(1);
+        let bulk: u128 = self
+            .bulk
+            .iter()
+            .map(|(&(_, seeds), &configs)| {
+                let seeds = seeds.max(1);
+                if seeds >= batch {
+                    // Each configuration alone fills its batches: ceil(seeds / batch) parts.
+                    configs.saturating_mul(seeds.div_ceil(batch))
+                } else {
+                    // batch / seeds whole configurations per part (the next would not fit).
+                    configs.div_ceil(batch / seeds)
+                }
+            })
+            .sum();
+        self.closed + self.pending.values().filter(|&&n| n > 0).count() as u128 + bulk
     }
 }
 

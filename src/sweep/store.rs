@@ -1028,13 +1028,15 @@ pub fn compact(dir: &Path, target_runs: u64, command: &str) -> Result<Compacted,
         // The copy must hold every run exactly once before it replaces the original.
         let check = self::scan(&staging, total, &|_| true)?;
         if check.done.len() != total || !check.leftovers.is_empty() {
-            return Err(refuse(
-                &staging,
-                format!(
+            // The copy's fault, not the input's: a runtime failure (exit 1).
+            return Err(StoreError::Io {
+                action: "verify",
+                path: staging.clone(),
+                cause: std::io::Error::other(format!(
                     "the merged copy holds {} of {total} runs; the dataset was left as it was",
                     check.done.len()
-                ),
-            ));
+                )),
+            });
         }
         for sub in subs {
             sync_dir(&staging.join(sub));
