@@ -401,6 +401,16 @@ fn the_dry_run_counts_the_parts_and_estimates_the_bytes_the_sweep_writes() {
         (&again["already_written"], &again["runs"]),
         (&12.into(), &12.into())
     );
+    // Another sweep's folder is refused, as the resume itself refuses it.
+    let other = write_sweep(
+        dir.path(),
+        "other.toml",
+        &SMALL.replace("seeds = 3", "seeds = 2"),
+    );
+    let refused = run(&["sweep", &other, "--out", o, "--resume", "--dry-run"]);
+    assert_eq!(refused.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&refused.stderr);
+    assert!(err.contains("holds a different sweep"), "{err}");
     let written: u64 = ["runs", "series"]
         .iter()
         .flat_map(|t| std::fs::read_dir(out_dir.join(t)).unwrap())

@@ -326,8 +326,11 @@ fn missing_runs(done: &store::RunSet, config: u64, seeds: u64) -> u64 {
 }
 
 /// Runs of `shard` already committed in `out` (0 when it holds no dataset): what a `--resume`
-/// would not run again. Reads the parts' run indices without locking, writing or deleting.
+/// would not run again; a folder of another sweep is refused, as the resume refuses it. Reads
+/// the parts' run indices without locking, writing or deleting.
 pub fn already_written(sweep: &Sweep, shard: Shard, out: &Path) -> Result<u64, StoreError> {
+    // Another sweep's runs are not this one's (the resume itself refuses that folder).
+    store::same_sweep(out, &sweep.text, &sweep.file)?;
     if !out.join(store::RUNS_DIR).is_dir() {
         return Ok(0);
     }

@@ -362,6 +362,15 @@ impl Drop for Lock {
     }
 }
 
+/// Refuses `dir` when it holds another sweep than `text` (its `sweep.toml` differs), reading
+/// only: what [`check_folder`] says of a dataset, for a dry run that must change nothing.
+pub fn same_sweep(dir: &Path, text: &str, file: &str) -> Result<(), StoreError> {
+    match fs::read_to_string(dir.join(SWEEP_FILE)) {
+        Ok(existing) => compare_text(dir, &existing, text, file),
+        Err(_) => Ok(()),
+    }
+}
+
 /// Creates `dir` if needed and checks that it is empty or a dataset of this sweep text.
 pub fn check_folder(dir: &Path, text: &str, file: &str) -> Result<(), StoreError> {
     fs::create_dir_all(dir).map_err(io("create output folder", dir))?;
