@@ -1917,7 +1917,7 @@ impl Sweep {
         ];
         let reps = self.representatives(shard, &keys, SIZE_ENUMERATE_LIMIT);
         let mut size = Size::default();
-        let mut parts = PartCount::default();
+        let mut parts = PartCount::new(batch_size);
         let seeds = u128::from(self.seeds);
         // Listed one by one, configurations are batched as `plan` does; a sample standing for
         // many is counted in closed form, its kind of run standing for theirs.
@@ -1926,12 +1926,12 @@ impl Sweep {
             let resolved = self.resolve(config);
             size.add(weight * seeds, &resolved.params, self.trace);
             if listed {
-                parts.add(PartKey::of(&resolved), seeds, batch_size);
+                parts.add(PartKey::of(&resolved), seeds);
             } else {
                 parts.add_many(PartKey::of(&resolved), weight, seeds);
             }
         }
-        size.parts = parts.parts(batch_size);
+        size.parts = parts.parts();
         size.parts_exact =
             listed && reps.configs.len() as u64 == shard.count_of(self.configurations);
         if reps.exact {

@@ -223,8 +223,10 @@ impl PartKey {
 
 /// Counts the parts [`plan`] makes of configurations added in order, without building their
 /// runs: for sizing a sweep before it starts.
-#[derive(Debug, Default)]
+#[derive(Debug)]
 pub struct PartCount {
+    /// Runs per batch at most (at least 1).
+    batch: u128,
     pending: std::collections::BTreeMap<PartKey, u128>,
     closed: u128,
     /// Configurations added in bulk, per key, of `seeds` runs each ([`PartCount::add_many`]).
@@ -232,9 +234,19 @@ pub struct PartCount {
 }
 
 impl PartCount {
-    /// Adds `runs` runs of a configuration with `key` to batches of at most `batch_size`.
-    pub fn add(&mut self, key: PartKey, runs: u128, batch_size: usize) {
-        let batch = (batch_size as u128).max(1);
+    /// No configuration yet, in batches of at most `batch_size` runs.
+    pub fn new(batch_size: usize) -> PartCount {
+        PartCount {
+            batch: (batch_size as u128).max(1),
+            pending: Default::default(),
+            closed: 0,
+            bulk: Default::default(),
+        }
+    }
+
+    /// Adds `runs` runs of a configuration with `key`.
+    pub fn add(&mut self, key: PartKey, runs: u128) {
+        let batch = self.batch;
         let open = self.pending.entry(key).or_default();
         // As `plan`: a batch is closed before a configuration that would not fit.
         if *open > 0 && *open + runs > batch {
@@ -252,9 +264,9 @@ impl PartCount {
         *self.bulk.entry((key, seeds)).or_default() += configs;
     }
 
-    /// The parts, once every configuration was added, in batches of at most `batch_size`.
-    pub fn parts(&self, batch_size: usize) -> u128 {
-        let batch = (batch_size as u128).max(1);
+    /// The parts, once every configuration was added.
+    pub fn parts(&self) -> u128 {
+        let batch = self.batch;
         let bulk: u128 = self
             .bulk
             .iter()
