@@ -89,6 +89,14 @@ impl Sizes {
                 .clone()
                 .any(|p| runs(p.controller) && p.controller.averages() && !p.human_may_act())
         };
+        let slots = if params
+            .clone()
+            .any(|p| p.controller.weighs_cost() || mixes_keeping_entropies(p))
+        {
+            KEPT_SLOTS
+        } else {
+            ROOMY_KEPT_SLOTS
+        };
         Sizes {
             states: n_s,
             actions: spec.n_actions,
@@ -97,18 +105,8 @@ impl Sizes {
             avg_mf_states: states_if(any(|c| c.runs_mf() && c.averages())),
             avg_mb_states: states_if(any(|c| c.runs_mb() && c.averages())),
             kept_states: states_if(mf_alone),
-            kept_mf_slots: kept_slots(
-                n_s,
-                mf_alone,
-                folds_unattended(&|c| c.runs_mf()),
-                KEPT_SLOTS.0,
-            ),
-            kept_mb_slots: kept_slots(
-                n_s,
-                mb_alone,
-                folds_unattended(&|c| c.runs_mb()),
-                KEPT_SLOTS.1,
-            ),
+            kept_mf_slots: kept_slots(n_s, mf_alone, folds_unattended(&|c| c.runs_mf()), slots.0),
+            kept_mb_slots: kept_slots(n_s, mb_alone, folds_unattended(&|c| c.runs_mb()), slots.1),
             cost_states: states_if(any(Controller::weighs_cost)),
             mix_states: states_if(params.clone().any(mixes_keeping_entropies)),
             mix_weight_states: states_if(
@@ -155,10 +153,17 @@ fn mixes_keeping_entropies(params: &Params) -> bool {
 
 /// Slots of a two-expert run's kept MF softmaxes, and of its MB ones: powers of two, so that a
 /// state finds its slot with a mask ([`kept_slot`]). At steady state a run decides in a few
-/// states over and over (19 in tidy1), mostly with one expert, and the slots hold most of their
-/// softmaxes; their number is what the 64 KiB of state per tidy run of every rule leaves room
-/// for (a slot per state, as a single expert's run has, would exceed it).
+/// states over and over (19 in tidy1), and the slots hold most of their softmaxes; their number
+/// is what the 64 KiB of state per tidy run of every rule leaves room for (a slot per state, as
+/// a single expert's run has, would exceed it): these where a run holds per-state cost averages
+/// or mixed distributions' entropies, [`ROOMY_KEPT_SLOTS`] elsewhere.
 pub const KEPT_SLOTS: (usize, usize) = (16, 8);
+
+/// [`KEPT_SLOTS`] for a batch whose runs hold neither per-state cost averages nor mixed
+/// entropies: the room of those two tables of a tidy run (1,792 bytes) holds 24 more slots.
+/// `fixed` and `rnd` give MB half of their decisions, so states' MB softmaxes would otherwise
+/// take one another's slots between visits.
+pub const ROOMY_KEPT_SLOTS: (usize, usize) = (32, 16);
 
 /// Slots of an expert's kept softmaxes in a batch of `states` states: one per state when a run
 /// runs the expert `alone`, `cap` (or one per state, if fewer) when a run runs it with the other
