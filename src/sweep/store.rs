@@ -362,23 +362,37 @@ impl Drop for Lock {
     }
 }
 
+/// The `sweep.toml` of `dir`, or `None` when there is none (nor a folder to hold one).
+fn sweep_text(dir: &Path) -> Result<Option<String>, StoreError> {
+    let sweep = dir.join(SWEEP_FILE);
+    match fs::read_to_string(&sweep) {
+        Ok(existing) => Ok(Some(existing)),
+        Err(e)
+            if matches!(
+                e.kind(),
+                std::io::ErrorKind::NotFound | std::io::ErrorKind::NotADirectory
+            ) =>
+        {
+            Ok(None)
+        }
+        Err(e) => Err(io("read", &sweep)(e)),
+    }
+}
+
 /// Refuses `dir` when it holds another sweep than `text` (its `sweep.toml` differs), reading
 /// only: what [`check_folder`] says of a dataset, for a dry run that must change nothing.
 pub fn same_sweep(dir: &Path, text: &str, file: &str) -> Result<(), StoreError> {
-    match fs::read_to_string(dir.join(SWEEP_FILE)) {
-        Ok(existing) => compare_text(dir, &existing, text, file),
-        Err(_) => Ok(()),
+    match sweep_text(dir)? {
+        Some(existing) => compare_text(dir, &existing, text, file),
+        None => Ok(()),
     }
 }
 
 /// Creates `dir` if needed and checks that it is empty or a dataset of this sweep text.
 pub fn check_folder(dir: &Path, text: &str, file: &str) -> Result<(), StoreError> {
     fs::create_dir_all(dir).map_err(io("create output folder", dir))?;
-    let sweep = dir.join(SWEEP_FILE);
-    match fs::read_to_string(&sweep) {
-        Ok(existing) => return compare_text(dir, &existing, text, file),
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
-        Err(e) => return Err(io("read", &sweep)(e)),
+    if let Some(existing) = sweep_text(dir)? {
+        return compare_text(dir, &existing, text, file);
     }
     // No sweep.toml: accept only what a process killed during start-up leaves behind.
     for entry in fs::read_dir(dir).map_err(io("list", dir))?.flatten() {
